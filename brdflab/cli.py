@@ -1,0 +1,159 @@
+"""The command line: `brdflab [gui|models|info|eval|fit|render|bench] ...`.
+
+Every command prints one JSON object as the last line of stdout with --json. Bad
+input raises BRDFLabError, which becomes a one-line message on stderr and exit
+status 2 (never a traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .errors import BRDFLabError
+
+
+def _emit(args: argparse.Namespace, payload: dict, human: str) -> None:
+    if getattr(args, "json", False):
+        print(json.dumps(payload, default=_json_default))
+    else:
+        print(human)
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(type(o).__name__)
+
+
+# --- commands ---------------------------------------------------------------------------
+
+def cmd_models(args: argparse.Namespace) -> int:
+    from .models import all_models
+
+    models = [m.describe() for m in all_models()]
+    lines = []
+    for m in models:
+        ps = ", ".join(f"{p['name']}={p['default']:g} [{p['lower']:g}, {p['upper']:g}]" for p in m["parameters"])
+        flags = ("isotropic" if m["isotropic"] else "anisotropic") + (", samplable" if m["samplable"] else "")
+        lines.append(f"{m['id']:<24} {flags:<24} {ps}")
+    _emit(args, {"models": models}, "\n".join(lines))
+    return 0
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from .sources import describe_file
+
+    info = describe_file(Path(args.file))
+    for w in info.get("warnings", []):
+        print(f"{args.file}: warning: {w}", file=sys.stderr)
+    _emit(args, info, json.dumps(info, indent=2, default=_json_default))
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from .sources import load_source
+
+    pairs_path = Path(args.pairs)
+    try:
+        pairs = np.load(pairs_path, allow_pickle=False)
+    except (OSError, ValueError) as e:
+        raise BRDFLabError(f"cannot read as .npy: {e}", pairs_path) from None
+    if pairs.ndim != 2 or pairs.shape[1] != 6:
+        raise BRDFLabError(f"expected an (N, 6) array [wi | wo], got shape {pairs.shape}", pairs_path)
+    if not np.issubdtype(pairs.dtype, np.floating) and not np.issubdtype(pairs.dtype, np.integer):
+        raise BRDFLabError(f"expected a numeric array, got dtype {pairs.dtype}", pairs_path)
+    pairs = pairs.astype(float)
+    if not np.all(np.isfinite(pairs)):
+        raise BRDFLabError("the pairs contain NaN or Inf", pairs_path)
+    wi, wo = pairs[:, :3], pairs[:, 3:]
+    for name, w in (("wi", wi), ("wo", wo)):
+        norm = np.linalg.norm(w, axis=1)
+        if np.any(norm < 1e-9):
+            raise BRDFLabError(f"a {name} direction has zero length", pairs_path)
+    wi = wi / np.linalg.norm(wi, axis=1, keepdims=True)
+    wo = wo / np.linalg.norm(wo, axis=1, keepdims=True)
+    source = load_source(Path(args.material), fitting=args.fitting)
+    values = source.evaluate(wi, wo)
+    out = Path(args.out)
+    from .xmlio import atomic_write
+    import io
+
+    buf = io.BytesIO()
+    np.save(buf, values)
+    try:
+        atomic_write(out, buf.getvalue())
+    except OSError as e:
+        raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
+    payload = {"out": str(out), "pairs": int(values.shape[0]), "channels": int(values.shape[1])}
+    _emit(args, payload, f"wrote {values.shape[0]} × {values.shape[1]} values to {out}")
+    return 0
+
+
+def cmd_gui(args: argparse.Namespace) -> int:
+    from .gui.app import run
+
+    return run(getattr(args, "file", None))
+
+
+# --- parser ------------------------------------------------------------------------------
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="brdflab", description="A laboratory for reflectance.")
+    sub = parser.add_subparsers(dest="command")
+
+    p = sub.add_parser("gui", help="open the desktop application")
+    p.add_argument("file", nargs="?", help="an XML material or measured data file")
+    p.set_defaults(func=cmd_gui)
+
+    p = sub.add_parser("models", help="list every lobe model")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_models)
+
+    p = sub.add_parser("info", help="what a material or data file holds")
+    p.add_argument("file")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("eval", help="evaluate a material at direction pairs")
+    p.add_argument("material")
+    p.add_argument("--pairs", required=True, help="(N, 6) .npy array [wi | wo] in the local frame")
+    p.add_argument("--out", required=True, help="(N, C) .npy output")
+    p.add_argument("--fitting", type=int, default=None, help="evaluate the K-th stored fit (0-based)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_eval)
+
+    for extra in _EXTRA_COMMANDS:
+        extra(sub)
+    return parser
+
+
+_EXTRA_COMMANDS: list = []
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        args = parser.parse_args(["gui"])
+    try:
+        return args.func(args)
+    except BRDFLabError as e:
+        print(f"brdflab {args.command}: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"brdflab {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,306 @@
+"""Measured BRDFs: MERL `.binary` tables, bivariate (θh × θd) slices, raw samples and
+MPI car-paint files, all behind the same `evaluate(wi, wo) → (N, C)` interface."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import BRDFLabError
+from .halfdiff import N_PD, N_TD, N_TH, continuous_bins, from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin, to_half_diff
+from .vec import spherical_to_cartesian
+
+MERL_SCALE = np.array([1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0])
+MERL_HEADER = np.array([N_TH, N_TD, N_PD], dtype="<i4")
+MERL_COUNT = N_TH * N_TD * N_PD
+SLICE_BYTES = N_TH * N_TD * 3 * 4
+CARPAINT_HEADER = 84
+
+
+@dataclass
+class MeasuredTable:
+    """An isotropic BRDF tabulated on MERL's (θh, θd, φd) grid, per channel, in 1/sr.
+
+    `values` has shape (C, 90, 90, 180), float32; `valid` marks measured samples.
+    `phi_d_samples` is 180 for a full table, 1 for a bivariate slice (constant in φd).
+    """
+
+    values: np.ndarray
+    valid: np.ndarray
+    name: str = "measured"
+    source_type: str = "MERLBRDFDatabase"
+    path: Path | None = None
+    interpolation: str = "trilinear"
+    meta: dict = field(default_factory=dict)
+
+    isotropic = True
+    kind = "Measured"
+
+    @property
+    def n_channels(self) -> int:
+        return self.values.shape[0]
+
+    @property
+    def phi_d_samples(self) -> int:
+        return self.values.shape[3]
+
+    def describe(self) -> dict:
+        return {
+            "type": self.source_type,
+            "name": self.name,
+            "file": None if self.path is None else str(self.path),
+            "channels": self.n_channels,
+            "shape": list(self.values.shape[1:]),
+            "valid_samples": int(self.valid.sum()),
+            "total_samples": int(self.valid.size),
+            "max_value": [float(self.values[c][self.valid].max()) if self.valid.any() else None for c in range(self.n_channels)],
+            "interpolation": self.interpolation,
+            **self.meta,
+        }
+
+    # --- lookup ---------------------------------------------------------------------
+    def evaluate(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """Values at direction pairs (N, C); 0 below the surface or where nothing was measured."""
+        wi = np.asarray(wi, float)
+        wo = np.asarray(wo, float)
+        th, _, td, pd = to_half_diff(wi, wo)
+        x, y, z = continuous_bins(th, td, pd)
+        if self.phi_d_samples == 1:
+            z = np.zeros_like(z)
+        out = self._trilinear(x, y, z) if self.interpolation == "trilinear" else self._nearest(x, y, z)
+        above = (wi[..., 2] > 0) & (wo[..., 2] > 0)
+        return np.where(above[..., None], out, 0.0)
+
+    def _nearest(self, x, y, z) -> np.ndarray:
+        ix = np.clip(np.rint(x).astype(int), 0, N_TH - 1)
+        iy = np.clip(np.rint(y).astype(int), 0, N_TD - 1)
+        iz = np.rint(z).astype(int) % self.phi_d_samples
+        vals = self.values[:, ix, iy, iz]
+        ok = self.valid[ix, iy, iz]
+        return np.where(ok, vals, 0.0).T.astype(float)
+
+    def _trilinear(self, x, y, z) -> np.ndarray:
+        x = np.clip(x, 0.0, N_TH - 1.0)
+        y = np.clip(y, 0.0, N_TD - 1.0)
+        x0 = np.minimum(np.floor(x).astype(int), N_TH - 2)
+        y0 = np.minimum(np.floor(y).astype(int), N_TD - 2)
+        fx, fy = x - x0, y - y0
+        npd = self.phi_d_samples
+        if npd == 1:
+            z0 = np.zeros_like(x0)
+            fz = np.zeros_like(fx)
+        else:
+            z0 = np.floor(z).astype(int) % npd
+            fz = z - np.floor(z)
+        acc = np.zeros(x.shape + (self.n_channels,))
+        wsum = np.zeros(x.shape)
+        for dx, wx in ((0, 1 - fx), (1, fx)):
+            for dy, wy in ((0, 1 - fy), (1, fy)):
+                for dz, wz in ((0, 1 - fz), (1, fz)):
+                    if npd == 1 and dz == 1:
+                        continue
+                    ix, iy, iz = x0 + dx, y0 + dy, (z0 + dz) % npd
+                    w = wx * wy * wz * self.valid[ix, iy, iz]
+                    acc += w[..., None] * np.moveaxis(self.values[:, ix, iy, iz], 0, -1)
+                    wsum += w
+        return np.where(wsum[..., None] > 1e-12, acc / np.maximum(wsum, 1e-12)[..., None], 0.0)
+
+    # --- sample sets ------------------------------------------------------------------
+    def sample_directions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """All valid grid samples as (wi, wo, values (N, C)), with φh = 0 (isotropic)."""
+        ix, iy, iz = np.nonzero(self.valid)
+        wi, wo = from_half_diff(theta_h_of_bin(ix), 0.0, theta_d_of_bin(iy), phi_d_of_bin(iz) if self.phi_d_samples > 1 else np.full(ix.shape, 0.5 * np.pi))
+        vals = self.values[:, ix, iy, iz].T
+        keep = (wi[:, 2] > 1e-6) & (wo[:, 2] > 1e-6)
+        return wi[keep], wo[keep], vals[keep].astype(float)
+
+    def to_full(self) -> "MeasuredTable":
+        """A full 180-φd table (a bivariate slice repeated along φd)."""
+        if self.phi_d_samples == N_PD:
+            return self
+        values = np.repeat(self.values, N_PD, axis=3)
+        valid = np.repeat(self.valid, N_PD, axis=2)
+        return MeasuredTable(values, valid, self.name, "MERLBRDFDatabase", None, self.interpolation, dict(self.meta))
+
+
+# --------------------------------------------------------------------------------------
+# readers
+
+def _read(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise BRDFLabError(f"cannot read: {e.strerror}", path) from None
+
+
+def _finish(values: np.ndarray, path: Path, valid: np.ndarray | None = None) -> np.ndarray:
+    """Check a decoded table: NaN/Inf are errors, negative entries are unmeasured."""
+    if not np.all(np.isfinite(values)):
+        bad = int(np.count_nonzero(~np.isfinite(values)))
+        raise BRDFLabError(f"{bad} values are NaN or Inf", path)
+    valid_all = np.all(values >= 0.0, axis=0) if valid is None else valid
+    if not valid_all.any():
+        raise BRDFLabError("every sample is negative (nothing was measured)", path)
+    return valid_all
+
+
+def read_merl_binary(path: str | os.PathLike) -> MeasuredTable:
+    """MERL `.binary`: three int32 dims (90, 90, 180), then 3·90·90·180 float64."""
+    path = Path(path)
+    data = _read(path)
+    expected = 12 + 3 * MERL_COUNT * 8
+    if len(data) < 12:
+        raise BRDFLabError(f"truncated: {len(data)} bytes, a MERL header alone is 12", path)
+    dims = np.frombuffer(data[:12], dtype="<i4")
+    if not np.array_equal(dims, MERL_HEADER):
+        raise BRDFLabError(f"header dimensions {tuple(int(d) for d in dims)}, expected (90, 90, 180)", path)
+    if len(data) != expected:
+        what = "truncated" if len(data) < expected else "oversized"
+        raise BRDFLabError(f"{what}: {len(data)} bytes, expected {expected}", path)
+    raw = np.frombuffer(data, dtype="<f8", offset=12).reshape(3, N_TH, N_TD, N_PD)
+    valid = _finish(raw, path)
+    values = (raw * MERL_SCALE[:, None, None, None]).astype(np.float32)
+    values[:, ~valid] = 0.0
+    return MeasuredTable(values, valid, path.stem, "MERLBRDFDatabase", path)
+
+
+def write_merl_binary(table: MeasuredTable, path: str | os.PathLike) -> None:
+    """Write a full 3-channel table as MERL `.binary` (unmeasured samples as −1)."""
+    from .xmlio import atomic_write
+
+    full = table.to_full()
+    if full.n_channels != 3:
+        raise BRDFLabError(f"MERL files hold 3 channels, the table has {full.n_channels}", path)
+    raw = full.values.astype("<f8") / MERL_SCALE[:, None, None, None]
+    raw[:, ~full.valid] = -1.0
+    atomic_write(Path(path), MERL_HEADER.tobytes() + raw.astype("<f8").tobytes())
+
+
+def read_slice(path: str | os.PathLike) -> MeasuredTable:
+    """A bivariate MERL slice: 90 × 90 RGB float32, index 3·(90·θd_bin + θh_bin) + c."""
+    path = Path(path)
+    data = _read(path)
+    if len(data) != SLICE_BYTES:
+        what = "truncated" if len(data) < SLICE_BYTES else "oversized"
+        raise BRDFLabError(f"{what}: {len(data)} bytes, a slice is {SLICE_BYTES}", path)
+    raw = np.frombuffer(data, dtype="<f4").reshape(N_TD, N_TH, 3)  # [θd, θh, c]
+    values = np.ascontiguousarray(raw.transpose(2, 1, 0))[..., None]  # (3, θh, θd, 1)
+    valid = _finish(values, path)
+    values = np.where(valid, values, 0.0).astype(np.float32)
+    return MeasuredTable(values, valid, path.stem, "BivariateSlice", path)
+
+
+def read_carpaint(path: str | os.PathLike) -> MeasuredTable:
+    """MPI car paint: 84-byte header, then float32 RGB over φd (180) × θh (90) × θd (90)."""
+    path = Path(path)
+    data = _read(path)
+    expected = CARPAINT_HEADER + N_PD * N_TH * N_TD * 3 * 4
+    if len(data) != expected:
+        what = "truncated" if len(data) < expected else "oversized"
+        raise BRDFLabError(f"{what}: {len(data)} bytes, expected {expected}", path)
+    raw = np.frombuffer(data, dtype="<f4", offset=CARPAINT_HEADER).reshape(N_PD, N_TH, N_TD, 3)
+    if not np.all(np.isfinite(raw)):
+        raise BRDFLabError("values are NaN or Inf", path)
+    values = np.ascontiguousarray(np.maximum(raw, 0.0).transpose(3, 1, 2, 0)).astype(np.float32)
+    valid = np.ones(values.shape[1:], bool)
+    return MeasuredTable(values, valid, path.stem, "MPICarPaint", path)
+
+
+@dataclass
+class RawSamples:
+    """Scattered measurements `θi, φi, θo, φo, r, g, b` (radians), looked up by nearest sample."""
+
+    wi: np.ndarray
+    wo: np.ndarray
+    samples: np.ndarray  # (N, C)
+    name: str = "samples"
+    path: Path | None = None
+
+    source_type = "RawSamples"
+    kind = "Measured"
+
+    def __post_init__(self) -> None:
+        from scipy.spatial import cKDTree
+
+        self._tree = cKDTree(np.concatenate([self.wi, self.wo], axis=1))
+
+    @property
+    def n_channels(self) -> int:
+        return self.samples.shape[1]
+
+    @property
+    def isotropic(self) -> bool:
+        return False
+
+    def evaluate(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        wi = np.asarray(wi, float)
+        wo = np.asarray(wo, float)
+        q = np.concatenate(np.broadcast_arrays(wi, wo), axis=-1)
+        _, idx = self._tree.query(q.reshape(-1, 6))
+        out = self.samples[idx].reshape(q.shape[:-1] + (self.n_channels,))
+        above = (wi[..., 2] > 0) & (wo[..., 2] > 0)
+        return np.where(above[..., None], out, 0.0)
+
+    def sample_directions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.wi, self.wo, self.samples
+
+    def describe(self) -> dict:
+        return {"type": self.source_type, "name": self.name, "file": None if self.path is None else str(self.path),
+                "channels": self.n_channels, "samples": int(self.samples.shape[0])}
+
+
+def read_raw_samples(path: str | os.PathLike) -> RawSamples:
+    path = Path(path)
+    text = _read(path).decode("utf-8", errors="replace")
+    rows = []
+    for lineno, line in enumerate(text.splitlines(), 1):
+        s = line.strip()
+        if not s or s.startswith("#"):
+            continue
+        parts = s.replace(",", " ").split()
+        try:
+            row = [float(p) for p in parts]
+        except ValueError:
+            raise BRDFLabError(f"line {lineno}: not a number in {s[:60]!r}", path) from None
+        if len(row) < 5:
+            raise BRDFLabError(f"line {lineno}: expected θi, φi, θo, φo and at least one value, got {len(row)} fields", path)
+        if rows and len(row) != len(rows[0]):
+            raise BRDFLabError(f"line {lineno}: {len(row)} fields, earlier lines have {len(rows[0])}", path)
+        if not all(np.isfinite(row)):
+            raise BRDFLabError(f"line {lineno}: NaN or Inf", path)
+        rows.append(row)
+    if not rows:
+        raise BRDFLabError("no samples", path)
+    a = np.array(rows)
+    wi = spherical_to_cartesian(a[:, 0], a[:, 1])
+    wo = spherical_to_cartesian(a[:, 2], a[:, 3])
+    return RawSamples(wi, wo, a[:, 4:], path.stem, path)
+
+
+READERS = {
+    ".binary": read_merl_binary,
+    ".slice": read_slice,
+    ".txt": read_raw_samples,
+    ".csv": read_raw_samples,
+    ".carpaint": read_carpaint,
+    ".bin": read_carpaint,
+}
+
+TYPE_READERS = {
+    "MERLBRDFDatabase": read_merl_binary,
+    "BivariateSlice": read_slice,
+    "RawSamples": read_raw_samples,
+    "MPICarPaint": read_carpaint,
+}
+
+
+def read_measured(path: str | os.PathLike, source_type: str | None = None):
+    """Read any measured file, by its declared type or else by its extension."""
+    path = Path(path)
+    reader = TYPE_READERS.get(source_type or "") or READERS.get(path.suffix.lower())
+    if reader is None:
+        raise BRDFLabError(f"unknown measured data type {source_type or path.suffix!r}", path)
+    return reader(path)

@@ -1,0 +1,164 @@
+"""What a lobe model is: parameters declared once, NumPy evaluation, sampling and pdf.
+
+A model module subclasses `LobeModel`, fills in the class attributes and `_value`
+(and, if the literature gives one, `_sample`/`_pdf`), and decorates the class with
+`register`. Its GLSL twin is `shaders/<name>.glsl`. Everything else (the views,
+the fitter, the renderers, the XML reader) finds it through `brdflab.models.registry`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar, Mapping
+
+import numpy as np
+
+from ..vec import upper_hemisphere
+
+ParamValues = Mapping[str, "float | np.ndarray"]
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One lobe parameter: its XML attribute name, default, bounds and unit."""
+
+    name: str
+    default: float
+    lower: float
+    upper: float
+    unit: str = "1"
+    doc: str = ""
+
+    def as_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "default": self.default,
+            "lower": self.lower,
+            "upper": self.upper,
+            "unit": self.unit,
+            "doc": self.doc,
+        }
+
+
+class LobeModel:
+    """Base class of every lobe. Subclasses are stateless; parameters are passed in.
+
+    Directions are arrays of shape (..., 3) in the local frame; parameter values are
+    floats or arrays broadcastable to the leading shape (so a fitter can evaluate a
+    batch of parameter sets at once). Values are in 1/sr, without the cosine.
+    """
+
+    name: ClassVar[str]
+    parameters: ClassVar[tuple[Parameter, ...]] = ()
+    isotropic: ClassVar[bool] = True
+    reciprocal: ClassVar[bool] = True
+    sampling: ClassVar[str | None] = None  # how wi is importance-sampled, or None
+    summary: ClassVar[str] = ""
+    reference: ClassVar[str] = ""
+
+    # --- declared-once metadata -------------------------------------------------
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def samplable(self) -> bool:
+        return self.sampling is not None
+
+    def defaults(self) -> dict[str, float]:
+        return {p.name: p.default for p in self.parameters}
+
+    def parameter(self, name: str) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    def complete(self, given: Mapping[str, float]) -> dict[str, float]:
+        """Parameters read from a file, with the model's historical aliases resolved.
+
+        The default implementation accepts exactly the declared names; models with
+        aliases (Ward's lone `ax`, Ashikhmin–Shirley's `Exponent`) override it.
+        """
+        return dict(given)
+
+    def describe(self) -> dict:
+        return {
+            "id": self.name,
+            "xml_name": self.name,
+            "summary": self.summary,
+            "reference": self.reference,
+            "isotropic": self.isotropic,
+            "reciprocal": self.reciprocal,
+            "samplable": self.samplable,
+            "sampling": self.sampling,
+            "parameters": [p.as_dict() for p in self.parameters],
+        }
+
+    # --- evaluation -------------------------------------------------------------
+    def evaluate(self, wi: np.ndarray, wo: np.ndarray, params: ParamValues | None = None) -> np.ndarray:
+        """f(wi, wo), zero unless both directions are above the surface."""
+        wi = np.asarray(wi, dtype=float)
+        wo = np.asarray(wo, dtype=float)
+        p = self._with_defaults(params)
+        mask = upper_hemisphere(wi, wo)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+            v = self._value(wi, wo, p)
+        v = np.broadcast_to(v, np.broadcast_shapes(np.shape(v), mask.shape))
+        return np.where(mask & np.isfinite(v), v, 0.0)
+
+    def sample(self, wo: np.ndarray, u: np.ndarray, params: ParamValues | None = None) -> np.ndarray:
+        """Directions wi drawn from pdf(·, wo) using uniforms u of shape (..., 2)."""
+        if not self.samplable:
+            raise NotImplementedError(f"{self.name} has no importance sampling")
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+            return self._sample(np.asarray(wo, float), np.asarray(u, float), self._with_defaults(params))
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray, params: ParamValues | None = None) -> np.ndarray:
+        """Solid-angle density of `sample` over the whole sphere."""
+        if not self.samplable:
+            raise NotImplementedError(f"{self.name} has no importance sampling")
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+            d = self._pdf(np.asarray(wi, float), np.asarray(wo, float), self._with_defaults(params))
+        return np.where(np.isfinite(d), d, 0.0)
+
+    def _with_defaults(self, params: ParamValues | None) -> dict:
+        p = self.defaults()
+        if params:
+            for k, v in params.items():
+                if k not in p:
+                    raise KeyError(f"{self.name} has no parameter {k!r}")
+                p[k] = v
+        return p
+
+    # --- to implement -----------------------------------------------------------
+    def _value(self, wi: np.ndarray, wo: np.ndarray, p: dict) -> np.ndarray:
+        raise NotImplementedError
+
+    def _sample(self, wo: np.ndarray, u: np.ndarray, p: dict) -> np.ndarray:
+        raise NotImplementedError
+
+    def _pdf(self, wi: np.ndarray, wo: np.ndarray, p: dict) -> np.ndarray:
+        raise NotImplementedError
+
+
+def normalised_phong_factor(n):
+    """(n+2)/(2π): makes a cos^n lobe of the reflected direction energy-conserving."""
+    return (np.asarray(n, float) + 2.0) / (2.0 * math.pi)
+
+
+class CosineSampled(LobeModel):
+    """Mixin for diffuse-like lobes: importance-sample the cosine factor alone."""
+
+    sampling = "cosine-weighted hemisphere"
+
+    def _sample(self, wo, u, p):
+        from ..sampling import cosine_hemisphere
+
+        return cosine_hemisphere(np.broadcast_to(u, np.broadcast_shapes(u.shape, wo.shape[:-1] + (2,))))
+
+    def _pdf(self, wi, wo, p):
+        from ..sampling import cosine_hemisphere_pdf
+
+        return np.broadcast_to(cosine_hemisphere_pdf(wi), np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1]))

@@ -1,0 +1,63 @@
+"""Cook–Torrance microfacet lobes: Beckmann with V-cavity masking, and GGX with Smith masking."""
+
+import numpy as np
+
+from ..sampling import beckmann_d, beckmann_half_vector, ggx_d, ggx_half_vector, half_vector_pdf, reflect
+from ..vec import dot, half_vector, schlick
+from .base import LobeModel, Parameter
+from .registry import register
+
+_PARAMS = (
+    Parameter("m", 0.2, 0.001, 1.0, "1", "RMS microfacet slope (Beckmann m, GGX α)"),
+    Parameter("F0", 0.05, 0.0, 1.0, "1", "Fresnel reflectance at normal incidence"),
+)
+
+
+@register
+class CookTorrance(LobeModel):
+    name = "CookTorrance"
+    parameters = _PARAMS
+    summary = "D·G·F(wo·h)/(4 cosθi cosθo), Beckmann D, Cook–Torrance G."
+    reference = "Cook & Torrance 1982; BRDFLab; Schwenk 2011 §3.5"
+    sampling = "half vector from D(h) cos θh (Beckmann)"
+
+    def _value(self, wi, wo, p):
+        h = half_vector(wi, wo)
+        woh = dot(wo, h)
+        hz = h[..., 2]
+        g = np.minimum(1.0, np.minimum(2.0 * hz * wo[..., 2] / woh, 2.0 * hz * wi[..., 2] / woh))
+        d = beckmann_d(h, p["m"], p["m"])
+        return d * g * schlick(p["F0"], woh) / (4.0 * wi[..., 2] * wo[..., 2])
+
+    def _sample(self, wo, u, p):
+        return reflect(wo, beckmann_half_vector(p["m"], p["m"], u))
+
+    def _pdf(self, wi, wo, p):
+        return half_vector_pdf(wi, wo, lambda h: beckmann_d(h, p["m"], p["m"]) * h[..., 2])
+
+
+def smith_ggx_g1(cos_theta, alpha):
+    c2 = np.maximum(cos_theta * cos_theta, 1e-12)
+    tan2 = (1.0 - c2) / c2
+    return 2.0 / (1.0 + np.sqrt(1.0 + alpha * alpha * tan2))
+
+
+@register
+class CookTorranceGGX(LobeModel):
+    name = "CookTorranceGGX"
+    parameters = _PARAMS
+    summary = "D·G·F(wo·h)/(4 cosθi cosθo) with the GGX D and separable Smith G."
+    reference = "Walter et al. 2007 (microfacet models for refraction)"
+    sampling = "half vector from D(h) cos θh (GGX)"
+
+    def _value(self, wi, wo, p):
+        h = half_vector(wi, wo)
+        a = p["m"]
+        g = smith_ggx_g1(wi[..., 2], a) * smith_ggx_g1(wo[..., 2], a)
+        return ggx_d(h, a) * g * schlick(p["F0"], dot(wo, h)) / (4.0 * wi[..., 2] * wo[..., 2])
+
+    def _sample(self, wo, u, p):
+        return reflect(wo, ggx_half_vector(p["m"], u))
+
+    def _pdf(self, wi, wo, p):
+        return half_vector_pdf(wi, wo, lambda h: ggx_d(h, p["m"]) * h[..., 2])

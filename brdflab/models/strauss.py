@@ -1,0 +1,49 @@
+"""Strauss 1990's phenomenological model (Schwenk 2011 §3.9, eq. 46)."""
+
+import numpy as np
+
+from ..vec import TINY, dot, reflect_about_normal
+from .base import LobeModel, Parameter
+from .registry import register
+
+KF, KG, KJ = 1.12, 1.01, 0.1
+
+
+def strauss_fresnel(theta):
+    x = theta / (0.5 * np.pi)
+    return (1.0 / (x - KF) ** 2 - 1.0 / KF**2) / (1.0 / (1.0 - KF) ** 2 - 1.0 / KF**2)
+
+
+def strauss_shadow(theta):
+    x = theta / (0.5 * np.pi)
+    return (1.0 / (1.0 - KG) ** 2 - 1.0 / (x - KG) ** 2) / (1.0 / (1.0 - KG) ** 2 - 1.0 / KG**2)
+
+
+@register
+class Strauss(LobeModel):
+    name = "Strauss"
+    reciprocal = False
+    parameters = (
+        Parameter("smoothness", 0.5, 0.0, 0.99, "1", "s: 0 rough, 1 mirror-like"),
+        Parameter("metalness", 0.0, 0.0, 1.0, "1", "m: 0 dielectric, 1 metal"),
+        Parameter("transparency", 0.0, 0.0, 1.0, "1", "t"),
+        Parameter("color", 1.0, 0.0, 1.0, "1", "material colour C of this lobe's channel"),
+    )
+    summary = ("rd d C/π + rs Cs / cosθi with rd = (1−s³)(1−t), d = 1−ms, rs = rj cos^(3/(1−s)) α "
+               "and Strauss's Fresnel/shadow approximations.")
+    reference = "Strauss 1990; Schwenk 2011 §3.9 (diffuse part divided by π so C is an albedo)"
+
+    def _value(self, wi, wo, p):
+        s, m, t, c = p["smoothness"], p["metalness"], p["transparency"], p["color"]
+        theta_i = np.arccos(np.clip(wi[..., 2], -1.0, 1.0))
+        theta_o = np.arccos(np.clip(wo[..., 2], -1.0, 1.0))
+        rd = (1.0 - s**3) * (1.0 - t)
+        d = 1.0 - m * s
+        rn = (1.0 - t) - rd
+        fi = strauss_fresnel(theta_i)
+        j = fi * strauss_shadow(theta_i) * strauss_shadow(theta_o)
+        rj = np.minimum(1.0, rn + (rn + KJ) * j)
+        e = 3.0 / (1.0 - s)
+        rs = rj * np.maximum(dot(reflect_about_normal(wi), wo), 0.0) ** e
+        cs = 1.0 + m * (1.0 - fi) * (c - 1.0)
+        return rd * d * c / np.pi + rs * cs / np.maximum(wi[..., 2], TINY)

@@ -1,0 +1,66 @@
+"""Vectorised helpers for unit directions in the local shading frame (z = normal)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+TINY = 1e-12
+
+
+def normalize(v: np.ndarray) -> np.ndarray:
+    """Unit vectors along the last axis (zero vectors stay zero)."""
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.maximum(n, TINY)
+
+
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("...i,...i->...", a, b)
+
+
+def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    return normalize(wi + wo)
+
+
+def schlick(f0, cos_theta):
+    """Schlick's Fresnel approximation F0 + (1 - F0)(1 - cos)^5."""
+    c = np.clip(1.0 - cos_theta, 0.0, 1.0)
+    c2 = c * c
+    return f0 + (1.0 - f0) * (c2 * c2 * c)
+
+
+def spherical_to_cartesian(theta, phi) -> np.ndarray:
+    """Directions from θ (from +z) and φ (from +x towards +y)."""
+    theta = np.asarray(theta, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    s = np.sin(theta)
+    return np.stack(np.broadcast_arrays(s * np.cos(phi), s * np.sin(phi), np.cos(theta)), axis=-1)
+
+
+def cartesian_to_spherical(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    theta = np.arccos(np.clip(w[..., 2], -1.0, 1.0))
+    phi = np.arctan2(w[..., 1], w[..., 0])
+    return theta, phi
+
+
+def reflect_about_normal(w: np.ndarray) -> np.ndarray:
+    """Mirror direction of w about the surface normal z."""
+    return w * np.array([-1.0, -1.0, 1.0])
+
+
+def frame_around(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors completing `axis` (unit, shape (..., 3)) to an orthonormal frame.
+
+    Branchless construction of Duff et al. 2017 (no singularity except none at all).
+    """
+    x, y, z = axis[..., 0], axis[..., 1], axis[..., 2]
+    sign = np.where(z >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    t = np.stack([1.0 + sign * x * x * a, sign * b, -sign * x], axis=-1)
+    bt = np.stack([b, sign + y * y * a, -y], axis=-1)
+    return t, bt
+
+
+def upper_hemisphere(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """True where both directions are strictly above the surface."""
+    return (wi[..., 2] > 0.0) & (wo[..., 2] > 0.0)

@@ -1,0 +1,470 @@
+"""BRDFLab (2009) XML materials: read and write, losslessly and safely.
+
+Layout (../shared/CONVENTIONS.md): <BRDF> holds an <Info>, one <Material> and any
+number of <Fitting>s. Unknown elements are reported as warnings and written back
+unchanged (at the end of the element that held them). Parsing never resolves
+entities, loads DTDs or touches the network; saving is atomic.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lxml import etree
+
+from .errors import BRDFLabError
+from .material import AnalyticMaterial, Lobe
+from .models import get_model
+
+ANALYTIC = "Analytic"
+
+
+@dataclass
+class MeasuredReference:
+    """A material whose values live in a data file named relative to the XML file."""
+
+    type: str
+    name: str  # as written in <Name>
+    base_dir: Path | None = None
+    sha256: str | None = None
+    extra: list = field(default_factory=list)
+
+    kind = "Measured"
+
+    @property
+    def path(self) -> Path:
+        p = Path(self.name)
+        return p if p.is_absolute() or self.base_dir is None else self.base_dir / p
+
+    @property
+    def missing(self) -> bool:
+        return not self.path.is_file()
+
+    def current_sha256(self) -> str | None:
+        if self.missing:
+            return None
+        h = hashlib.sha256()
+        with open(self.path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+        return h.hexdigest()
+
+    def describe(self) -> dict:
+        out = {"type": self.type, "data_file": self.name, "resolved_path": str(self.path), "missing": self.missing}
+        if self.sha256:
+            out["sha256"] = self.sha256
+            if not self.missing:
+                out["sha256_matches"] = self.current_sha256() == self.sha256
+        return out
+
+
+@dataclass
+class Fitting:
+    """A stored fit: an analytic material plus how it was obtained."""
+
+    material: AnalyticMaterial
+    error: float | None = None
+    read_only: bool = False
+    optimizer: str = "LevenbergMarquardt"
+    statistics: dict = field(default_factory=dict)  # metric, seconds, iterations, ...
+    attributes: dict = field(default_factory=dict)  # unknown attributes of <Fitting>
+    extra: list = field(default_factory=list)
+
+    def describe(self) -> dict:
+        return {
+            "error": self.error,
+            "readOnly": self.read_only,
+            "optimizer": self.optimizer,
+            "statistics": dict(self.statistics),
+            "material": self.material.describe(),
+        }
+
+
+@dataclass
+class BRDFDocument:
+    """Everything one XML file holds."""
+
+    material: AnalyticMaterial | MeasuredReference
+    fittings: list[Fitting] = field(default_factory=list)
+    info: etree._Element | None = None
+    extra: list = field(default_factory=list)
+    path: Path | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    def describe(self) -> dict:
+        return {
+            "file": None if self.path is None else str(self.path),
+            "material": self.material.describe(),
+            "fittings": [f.describe() for f in self.fittings],
+            "warnings": list(self.warnings),
+        }
+
+
+# --------------------------------------------------------------------------------------
+# reading
+
+_PARSER_OPTIONS = dict(
+    resolve_entities=False, no_network=True, load_dtd=False, dtd_validation=False, huge_tree=False,
+    remove_blank_text=True,
+)
+
+
+class _Reader:
+    def __init__(self, path: Path | None, base_dir: Path | None) -> None:
+        self.path = path
+        self.base_dir = base_dir
+        self.warnings: list[str] = []
+
+    def fail(self, el: etree._Element | None, message: str) -> BRDFLabError:
+        where = f"line {el.sourceline}: <{el.tag}>: " if el is not None and el.sourceline else ""
+        return BRDFLabError(where + message, self.path)
+
+    def unknown(self, el: etree._Element, parent: str) -> None:
+        self.warnings.append(f"line {el.sourceline}: unknown element <{el.tag}> in <{parent}> kept as is")
+
+    def text(self, el: etree._Element, tag: str, required: bool = True) -> str | None:
+        child = el.find(tag)
+        if child is None or child.text is None or not child.text.strip():
+            if required:
+                raise self.fail(el, f"missing <{tag}>")
+            return None
+        return child.text.strip()
+
+    def number(self, el: etree._Element, attr: str, value: str) -> float:
+        try:
+            v = float(value)
+        except ValueError:
+            raise self.fail(el, f"{attr}={value!r} is not a number") from None
+        if not math.isfinite(v):
+            raise self.fail(el, f"{attr} is {value} (must be finite)")
+        return v
+
+    def integer(self, el: etree._Element, attr: str) -> int:
+        value = el.get(attr)
+        if value is None:
+            raise self.fail(el, f"missing attribute {attr}")
+        try:
+            return int(value)
+        except ValueError:
+            raise self.fail(el, f"{attr}={value!r} is not an integer") from None
+
+    # --- elements ---------------------------------------------------------------
+    def document(self, root: etree._Element) -> BRDFDocument:
+        if root.tag != "BRDF":
+            raise self.fail(root, "the root element must be <BRDF>")
+        info = None
+        material = None
+        fittings: list[Fitting] = []
+        extra = []
+        for child in root:
+            if not isinstance(child.tag, str):
+                continue  # comments, processing instructions
+            if child.tag == "Info":
+                info = copy.deepcopy(child)
+            elif child.tag == "Material":
+                if material is not None:
+                    raise self.fail(child, "a file holds one <Material>; found a second one")
+                material = self.material(child)
+            elif child.tag == "Fitting":
+                fittings.append(self.fitting(child))
+            else:
+                self.unknown(child, "BRDF")
+                extra.append(copy.deepcopy(child))
+        if material is None:
+            raise self.fail(root, "no <Material>")
+        return BRDFDocument(material, fittings, info, extra, self.path, self.warnings)
+
+    def fitting(self, el: etree._Element) -> Fitting:
+        known = {"error", "readOnly", "optimizerName"}
+        error = el.get("error")
+        read_only = el.get("readOnly", "0").strip().lower() in {"1", "true", "yes"}
+        material = None
+        statistics: dict = {}
+        extra = []
+        for child in el:
+            if not isinstance(child.tag, str):
+                continue
+            if child.tag == "Material":
+                material = self.material(child)
+                if not isinstance(material, AnalyticMaterial):
+                    raise self.fail(child, "a <Fitting> must hold an analytic material")
+            elif child.tag == "FitStatistics":
+                statistics = {k: _parse_scalar(v) for k, v in child.attrib.items()}
+            else:
+                self.unknown(child, "Fitting")
+                extra.append(copy.deepcopy(child))
+        if material is None:
+            raise self.fail(el, "a <Fitting> without a <Material>")
+        return Fitting(
+            material,
+            None if error is None else self.number(el, "error", error),
+            read_only,
+            el.get("optimizerName", "LevenbergMarquardt"),
+            statistics,
+            {k: v for k, v in el.attrib.items() if k not in known},
+            extra,
+        )
+
+    def material(self, el: etree._Element) -> AnalyticMaterial | MeasuredReference:
+        name = self.text(el, "Name", required=False) or ""
+        mtype = self.text(el, "Type")
+        known = {"Name", "Type"}
+        if mtype != ANALYTIC:
+            if not name:
+                raise self.fail(el, f"a {mtype} material must name its data file in <Name>")
+            known |= {"Checksum"}
+            checksum = el.find("Checksum")
+            sha = checksum.text.strip() if checksum is not None and checksum.text else None
+            extra = self.leftovers(el, known, "Material")
+            return MeasuredReference(mtype, name, self.base_dir, sha, extra)
+        combination = self.text(el, "LobeCombination")
+        if combination not in ("Linear", "Fixed"):
+            raise self.fail(el.find("LobeCombination"), f"LobeCombination must be Linear or Fixed, not {combination!r}")
+        params = el.find("Parameters")
+        if params is None:
+            raise self.fail(el, "an analytic material needs <Parameters nChannels=.. nLobes=..>")
+        n_channels = self.integer(params, "nChannels")
+        n_lobes = self.integer(params, "nLobes")
+        if n_channels < 1:
+            raise self.fail(params, f"nChannels={n_channels} (must be at least 1)")
+        lobes = self.lobes(params, combination, n_channels)
+        if len(lobes) != n_lobes:
+            raise self.fail(params, f"nLobes={n_lobes} but {len(lobes)} <Lobe> elements")
+        extra = self.leftovers(el, known | {"LobeCombination", "Parameters"}, "Material")
+        mat = AnalyticMaterial(name or "material", combination, n_channels, lobes, extra)
+        try:
+            mat.validate()
+        except BRDFLabError as e:
+            raise self.fail(params, str(e)) from None
+        return mat
+
+    def leftovers(self, el: etree._Element, known: set[str], parent: str) -> list:
+        out = []
+        for child in el:
+            if isinstance(child.tag, str) and child.tag not in known:
+                self.unknown(child, parent)
+                out.append(copy.deepcopy(child))
+        return out
+
+    def lobes(self, params: etree._Element, combination: str, n_channels: int) -> list[Lobe]:
+        lobes: list[Lobe] = []
+        pending_scale: list[float] | None = None
+        for child in params:
+            if not isinstance(child.tag, str):
+                continue
+            if child.tag == "ScalingFactors":
+                if combination == "Fixed":
+                    raise self.fail(child, "a Fixed material has no scaling factors")
+                if pending_scale is not None:
+                    raise self.fail(child, "two <ScalingFactors> in a row")
+                pending_scale = self.scaling_factors(child, n_channels)
+            elif child.tag == "Lobe":
+                if combination == "Linear":
+                    if pending_scale is None:
+                        raise self.fail(child, "in a Linear material each <Lobe> follows its <ScalingFactors>")
+                    lobes.append(self.lobe(child, combination, pending_scale))
+                    pending_scale = None
+                else:
+                    lobes.append(self.lobe(child, combination, None))
+            else:
+                self.unknown(child, "Parameters")
+                if lobes:
+                    lobes[-1].extra.append(("Parameters", copy.deepcopy(child)))
+        if pending_scale is not None:
+            raise self.fail(params, "<ScalingFactors> without a following <Lobe>")
+        return lobes
+
+    def scaling_factors(self, el: etree._Element, n_channels: int) -> list[float]:
+        names = [f"channel{c}" for c in range(n_channels)]
+        extra = sorted(set(el.attrib) - set(names))
+        if extra:
+            raise self.fail(el, f"unexpected attribute(s) {', '.join(extra)} for {n_channels} channels")
+        missing = [n for n in names if n not in el.attrib]
+        if missing:
+            raise self.fail(el, f"missing {', '.join(missing)} ({n_channels} channels)")
+        return [self.number(el, n, el.get(n)) for n in names]
+
+    def lobe(self, el: etree._Element, combination: str, scale: list[float] | None) -> Lobe:
+        model_name = self.text(el, "Model")
+        try:
+            model = get_model(model_name)
+        except BRDFLabError as e:
+            raise self.fail(el.find("Model"), str(e)) from None
+        p_el = el.find("Parameters")
+        given = {} if p_el is None else {k: self.number(p_el, k, v) for k, v in p_el.attrib.items()}
+        channel = None
+        if combination == "Fixed":
+            channel = self.integer(el, "channel")
+            value = given.pop("value", None)
+            if value is None:
+                if model.name == "Lambertian":
+                    raise self.fail(p_el if p_el is not None else el, "a Fixed Lambertian lobe needs value=..")
+                value = 1.0
+            scale = [value]
+        params = model.complete(given)
+        lobe = Lobe(model, params, list(scale), channel)
+        try:
+            lobe.validate()
+        except BRDFLabError as e:
+            raise self.fail(p_el if p_el is not None else el, str(e)) from None
+        for child in el:
+            if isinstance(child.tag, str) and child.tag not in {"Model", "Type", "Parameters"}:
+                self.unknown(child, "Lobe")
+                lobe.extra.append(("Lobe", copy.deepcopy(child)))
+        return lobe
+
+
+def _parse_scalar(text: str):
+    for conv in (int, float):
+        try:
+            return conv(text)
+        except ValueError:
+            pass
+    return text
+
+
+def parse_bytes(data: bytes, path: Path | str | None = None, base_dir: Path | None = None) -> BRDFDocument:
+    """Parse a document from bytes; BRDFLabError (naming `path`) on any problem."""
+    reader = _Reader(None if path is None else Path(path), base_dir)
+    parser = etree.XMLParser(**_PARSER_OPTIONS)
+    try:
+        root = etree.fromstring(data, parser)
+    except etree.XMLSyntaxError as e:
+        raise BRDFLabError(f"malformed XML: {e}", path) from None
+    if root is None:
+        raise BRDFLabError("empty XML document", path)
+    docinfo = root.getroottree().docinfo
+    if docinfo.internalDTD is not None or docinfo.doctype:
+        raise BRDFLabError("DOCTYPE declarations are not accepted in material files", path)
+    return reader.document(root)
+
+
+def load(path: str | os.PathLike) -> BRDFDocument:
+    """Read an XML material file."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise BRDFLabError(f"cannot read: {e.strerror}", path) from None
+    return parse_bytes(data, path, path.parent)
+
+
+# --------------------------------------------------------------------------------------
+# writing
+
+def _num(v: float) -> str:
+    return repr(float(v))
+
+
+def material_element(material: AnalyticMaterial | MeasuredReference) -> etree._Element:
+    el = etree.Element("Material")
+    etree.SubElement(el, "Name").text = material.name
+    if isinstance(material, MeasuredReference):
+        etree.SubElement(el, "Type").text = material.type
+        if material.sha256:
+            c = etree.SubElement(el, "Checksum", algorithm="sha256")
+            c.text = material.sha256
+        el.extend(copy.deepcopy(x) for x in material.extra)
+        return el
+    etree.SubElement(el, "Type").text = ANALYTIC
+    etree.SubElement(el, "LobeCombination").text = material.combination
+    params = etree.SubElement(
+        el, "Parameters", nChannels=str(material.n_channels), nLobes=str(len(material.lobes))
+    )
+    for lobe in material.lobes:
+        if material.combination == "Linear":
+            etree.SubElement(
+                params, "ScalingFactors", {f"channel{c}": _num(s) for c, s in enumerate(lobe.scale)}
+            )
+        lobe_el = etree.SubElement(params, "Lobe")
+        if material.combination == "Fixed":
+            lobe_el.set("channel", str(lobe.channel))
+        etree.SubElement(lobe_el, "Model").text = lobe.model.name
+        etree.SubElement(lobe_el, "Type").text = "Isotropic" if lobe.model.isotropic else "Anisotropic"
+        attrs = {k: _num(lobe.params[k]) for k in lobe.model.parameter_names}
+        if material.combination == "Fixed":
+            attrs["value"] = _num(lobe.scale[0])
+        etree.SubElement(lobe_el, "Parameters", attrs)
+        for where, extra in lobe.extra:
+            (lobe_el if where == "Lobe" else params).append(copy.deepcopy(extra))
+    el.extend(copy.deepcopy(x) for x in material.extra)
+    return el
+
+
+def document_element(doc: BRDFDocument) -> etree._Element:
+    root = etree.Element("BRDF")
+    if doc.info is not None:
+        root.append(copy.deepcopy(doc.info))
+    else:
+        info = etree.SubElement(root, "Info")
+        etree.SubElement(info, "Program").text = "brdflab"
+    root.append(material_element(doc.material))
+    for fit in doc.fittings:
+        attrs = {}
+        if fit.error is not None:
+            attrs["error"] = _num(fit.error)
+        attrs["readOnly"] = "1" if fit.read_only else "0"
+        attrs["optimizerName"] = fit.optimizer
+        attrs.update(fit.attributes)
+        f_el = etree.SubElement(root, "Fitting", attrs)
+        f_el.append(material_element(fit.material))
+        if fit.statistics:
+            etree.SubElement(f_el, "FitStatistics", {k: str(v) for k, v in fit.statistics.items()})
+        f_el.extend(copy.deepcopy(x) for x in fit.extra)
+    root.extend(copy.deepcopy(x) for x in doc.extra)
+    return root
+
+
+def to_bytes(doc: BRDFDocument) -> bytes:
+    return etree.tostring(document_element(doc), pretty_print=True, xml_declaration=True, encoding="UTF-8")
+
+
+def atomic_write(path: str | os.PathLike, data: bytes) -> None:
+    """Write `data` to `path` through a temporary file in the same folder and a rename,
+    so that a crash or a full disk never leaves a half-written file behind."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        if path.exists():
+            os.chmod(tmp, path.stat().st_mode & 0o7777)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def save(doc: BRDFDocument, path: str | os.PathLike) -> None:
+    """Write `doc` to `path` atomically. Measured data paths stay relative to the file."""
+    path = Path(path)
+    if isinstance(doc.material, MeasuredReference):
+        doc.material = _rebase(doc.material, path.parent)
+    try:
+        atomic_write(path, to_bytes(doc))
+    except OSError as e:
+        raise BRDFLabError(f"cannot write: {e.strerror}", path) from None
+    doc.path = path
+
+
+def _rebase(ref: MeasuredReference, new_dir: Path) -> MeasuredReference:
+    """The same data file, named relative to a new XML location when possible."""
+    target = ref.path
+    if Path(ref.name).is_absolute():
+        return ref
+    try:
+        rel = os.path.relpath(target.resolve(), new_dir.resolve())
+    except ValueError:
+        rel = str(target.resolve())
+    return MeasuredReference(ref.type, Path(rel).as_posix(), new_dir, ref.sha256, ref.extra)

@@ -1,0 +1,31 @@
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+SHARED = Path(os.environ.get("BRDFLAB_SHARED", ROOT.parent / "shared"))
+DATA = SHARED / "data"
+
+
+def unit(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def random_upper(rng, n):
+    v = unit(rng.normal(size=(n, 3)))
+    v[:, 2] = np.abs(v[:, 2]) + 1e-3
+    return unit(v)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(1234)
+
+
+def needs_shared(*parts):
+    """Skip cleanly on a machine without ../shared (a user's machine)."""
+    path = DATA.joinpath(*parts)
+    return pytest.mark.skipif(not path.exists(), reason=f"{path} is not available")
