@@ -98,6 +98,53 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_fit(args: argparse.Namespace) -> int:
+    import threading
+
+    from .fit import FitOptions, fit
+    from .fitting_io import append_fitting, document_for, initial_material
+    from .samples import samples_of
+    from .sources import load_source
+    from .xmlio import save
+
+    source_path = Path(args.source)
+    source = load_source(source_path, fitting=args.fitting)
+    lobes = [s.strip() for s in args.lobes.split(",") if s.strip()] if args.lobes else None
+    combination = {"linear": "Linear", "fixed": "Fixed"}[args.combination]
+    start = initial_material(lobes, combination, source.n_channels,
+                             Path(args.init) if args.init else None, args.init_fitting)
+    samples = samples_of(source, args.samples, size=args.size, density=args.density)
+    options = FitOptions(metric=args.metric, compression=args.compression, max_iterations=args.max_iterations,
+                         time_limit=args.time_limit, restarts=args.restarts)
+    if args.init:
+        options.coarse_size = 0  # continuing a stored fit: it is already near the optimum of all samples
+    t0 = __import__("time").perf_counter()
+    show = sys.stderr.isatty() and not args.json
+
+    def progress(p):
+        if show:
+            elapsed = __import__("time").perf_counter() - t0
+            print(f"\r{p.stage:>6} iteration {p.iteration:4d}  {options.metric} error {p.error:.6g}  {elapsed:6.2f} s",
+                  end="", file=sys.stderr, flush=True)
+
+    cancel = threading.Event()
+    try:
+        result = fit(start, samples, options, progress=progress, cancel=cancel)
+    finally:
+        if show:
+            print(file=sys.stderr)
+    payload = {**result.as_dict(), "samples": samples.size, "source": str(source_path)}
+    if args.out:
+        doc = document_for(source_path, source)
+        append_fitting(doc, result)
+        save(doc, Path(args.out))
+        payload["out"] = args.out
+    human = (f"{result.metric} error {result.error:.6g} after {result.iterations} iterations "
+             f"({result.seconds:.2f} s, {result.status})")
+    _emit(args, payload, human)
+    return 0
+
+
 def cmd_gui(args: argparse.Namespace) -> int:
     from .gui.app import run
 
@@ -131,12 +178,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_eval)
 
-    for extra in _EXTRA_COMMANDS:
-        extra(sub)
+    p = sub.add_parser("fit", help="fit analytic lobes to a source with Levenberg–Marquardt")
+    p.add_argument("source", help="measured data file, XML material, or XML with fits (see --fitting)")
+    p.add_argument("--lobes", help="comma-separated lobe models, e.g. Lambertian,LafortuneIso")
+    p.add_argument("--combination", choices=["linear", "fixed"], default="linear")
+    p.add_argument("--metric", default="L2", help="L2, cosL2 or Ngan")
+    p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"])
+    p.add_argument("--init", help="XML file whose last fitting (or material) is the initial guess")
+    p.add_argument("--init-fitting", type=int, default=None, help="use this stored fitting of --init")
+    p.add_argument("--fitting", type=int, default=None, help="fit the K-th stored fit of SOURCE")
+    p.add_argument("--samples", choices=["all", "subset", "grid"], default="all")
+    p.add_argument("--size", type=int, default=None, help="samples in a subset")
+    p.add_argument("--density", type=int, default=None, help="bins per angle of a grid")
+    p.add_argument("--restarts", action="store_true", help="also start from model-aware guesses; keep the best")
+    p.add_argument("--max-iterations", type=int, default=200)
+    p.add_argument("--time-limit", type=float, default=float("inf"), help="seconds")
+    p.add_argument("--out", help="write the source's XML with the new <Fitting> here")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_fit)
     return parser
-
-
-_EXTRA_COMMANDS: list = []
 
 
 def main(argv: list[str] | None = None) -> int:

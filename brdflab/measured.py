@@ -304,3 +304,18 @@ def read_measured(path: str | os.PathLike, source_type: str | None = None):
     if reader is None:
         raise BRDFLabError(f"unknown measured data type {source_type or path.suffix!r}", path)
     return reader(path)
+
+
+def tabulate(source, phi_d_samples: int = N_PD, name: str = "tabulated") -> MeasuredTable:
+    """Sample any isotropic source on MERL's grid (φh = 0), as a measured table.
+
+    Used to build MERL files from analytic models (tests, simulated materials) and to
+    turn any source into a texture for the renderers.
+    """
+    ix, iy, iz = np.meshgrid(np.arange(N_TH), np.arange(N_TD), np.arange(phi_d_samples), indexing="ij")
+    pd = phi_d_of_bin(iz) if phi_d_samples > 1 else np.full(iz.shape, 0.5 * np.pi)
+    wi, wo = from_half_diff(theta_h_of_bin(ix), 0.0, theta_d_of_bin(iy), pd)
+    values = np.moveaxis(source.evaluate(wi.reshape(-1, 3), wo.reshape(-1, 3)), -1, 0)
+    values = values.reshape((-1, N_TH, N_TD, phi_d_samples)).astype(np.float32)
+    above = (wi[..., 2] > 0) & (wo[..., 2] > 0)
+    return MeasuredTable(values, above & np.all(np.isfinite(values), axis=0), name, "MERLBRDFDatabase")

@@ -9,7 +9,7 @@ TINY = 1e-12
 
 def normalize(v: np.ndarray) -> np.ndarray:
     """Unit vectors along the last axis (zero vectors stay zero)."""
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    n = np.sqrt(np.einsum("...i,...i->...", v, v))[..., None]
     return v / np.maximum(n, TINY)
 
 

@@ -13,7 +13,7 @@ from ..vec import dot, half_vector, schlick
 from .base import CosineSampled, LobeModel, Parameter
 from .registry import register
 
-_EXP = dict(lower=0.0, upper=100000.0, unit="1")
+_EXP = dict(lower=0.0, upper=100000.0, unit="1", log=True)
 
 
 @register
@@ -28,6 +28,7 @@ class AshikhminShirley(LobeModel):
     summary = ("√((nu+1)(nv+1))/(8π) cosθh^(nu cos²φh+nv sin²φh) F(wi·h) / "
                "((wi·h) max(cosθi, cosθo)).")
     reference = "Ashikhmin & Shirley 2000; BRDFLab; Schwenk 2011 §3.6"
+    starts = tuple({"nu": e, "nv": e} for e in (10.0, 100.0, 1000.0, 10000.0))
     sampling = "half vector by Ashikhmin & Shirley 2000 (eq. 9)"
 
     def complete(self, given):

@@ -29,6 +29,7 @@ class Parameter:
     upper: float
     unit: str = "1"
     doc: str = ""
+    log: bool = False  # spans decades: the fitter searches it on a log scale
 
     def as_dict(self) -> dict:
         return {
@@ -38,6 +39,7 @@ class Parameter:
             "upper": self.upper,
             "unit": self.unit,
             "doc": self.doc,
+            "log_scale": self.log,
         }
 
 
@@ -56,6 +58,10 @@ class LobeModel:
     sampling: ClassVar[str | None] = None  # how wi is importance-sampled, or None
     summary: ClassVar[str] = ""
     reference: ClassVar[str] = ""
+    # model-aware starting points for automatic restarts (partial parameter dicts)
+    starts: ClassVar[tuple[dict, ...]] = ({},)
+    # parameters whose common scale does not change the lobe (searched as a direction)
+    scale_invariant: ClassVar[tuple[str, ...]] = ()
 
     # --- declared-once metadata -------------------------------------------------
     @property
@@ -105,8 +111,11 @@ class LobeModel:
         mask = upper_hemisphere(wi, wo)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
             v = self._value(wi, wo, p)
-        v = np.broadcast_to(v, np.broadcast_shapes(np.shape(v), mask.shape))
-        return np.where(mask & np.isfinite(v), v, 0.0)
+        out = np.array(np.broadcast_to(v, np.broadcast_shapes(np.shape(v), mask.shape)), dtype=float)
+        out[~np.broadcast_to(mask, out.shape)] = 0.0
+        if not np.isfinite(out.sum()):
+            out[~np.isfinite(out)] = 0.0
+        return out
 
     def sample(self, wo: np.ndarray, u: np.ndarray, params: ParamValues | None = None) -> np.ndarray:
         """Directions wi drawn from pdf(·, wo) using uniforms u of shape (..., 2)."""

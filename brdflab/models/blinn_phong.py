@@ -12,9 +12,10 @@ _Z = np.array([0.0, 0.0, 1.0])
 @register
 class BlinnPhong(LobeModel):
     name = "BlinnPhong"
-    parameters = (Parameter("Exponent", 20.0, 0.0, 100000.0, "1", "specular exponent n"),)
+    parameters = (Parameter("Exponent", 20.0, 0.0, 100000.0, "1", "specular exponent n", log=True),)
     summary = "Blinn–Phong half-vector cosine lobe, (n+2)/(2π) cos^n θh."
     reference = "Blinn 1977; BRDFLab; Schwenk 2011 §3.3.1"
+    starts = tuple({"Exponent": e} for e in (10.0, 100.0, 1000.0, 10000.0))
     sampling = "half vector from (n+1)/(2π) cos^n θh, reflected"
 
     def _value(self, wi, wo, p):

@@ -7,8 +7,9 @@ from ..vec import dot, half_vector, schlick
 from .base import LobeModel, Parameter
 from .registry import register
 
+_STARTS = tuple({"m": m, "F0": f} for m in (0.02, 0.08, 0.25, 0.5) for f in (0.05, 0.8))
 _PARAMS = (
-    Parameter("m", 0.2, 0.001, 1.0, "1", "RMS microfacet slope (Beckmann m, GGX α)"),
+    Parameter("m", 0.2, 0.001, 1.0, "1", "RMS microfacet slope (Beckmann m, GGX α)", log=True),
     Parameter("F0", 0.05, 0.0, 1.0, "1", "Fresnel reflectance at normal incidence"),
 )
 
@@ -19,6 +20,7 @@ class CookTorrance(LobeModel):
     parameters = _PARAMS
     summary = "D·G·F(wo·h)/(4 cosθi cosθo), Beckmann D, Cook–Torrance G."
     reference = "Cook & Torrance 1982; BRDFLab; Schwenk 2011 §3.5"
+    starts = _STARTS
     sampling = "half vector from D(h) cos θh (Beckmann)"
 
     def _value(self, wi, wo, p):
@@ -48,6 +50,7 @@ class CookTorranceGGX(LobeModel):
     parameters = _PARAMS
     summary = "D·G·F(wo·h)/(4 cosθi cosθo) with the GGX D and separable Smith G."
     reference = "Walter et al. 2007 (microfacet models for refraction)"
+    starts = _STARTS
     sampling = "half vector from D(h) cos θh (GGX)"
 
     def _value(self, wi, wo, p):

@@ -21,13 +21,14 @@ class Kurt(LobeModel):
     isotropic = False
     reciprocal = False  # reciprocal only when alpha = 1
     parameters = (
-        Parameter("mx", 0.2, 0.001, 1.0, "1", "RMS slope along the tangent"),
-        Parameter("my", 0.2, 0.001, 1.0, "1", "RMS slope along the bitangent"),
+        Parameter("mx", 0.2, 0.001, 1.0, "1", "RMS slope along the tangent", log=True),
+        Parameter("my", 0.2, 0.001, 1.0, "1", "RMS slope along the bitangent", log=True),
         Parameter("F0", 0.05, 0.0, 1.0, "1", "Fresnel reflectance at normal incidence"),
         Parameter("alpha", 0.5, 0.0, 2.0, "1", "exponent of cosθo in the denominator"),
     )
     summary = "F(wo·h) D(h) / (4 (wo·h) cosθi cosθo^α), D anisotropic Beckmann (eq. 10)."
     reference = "Kurt, Szirmay-Kalos & Křivánek 2010, eqs. 4–5, 10, 16–20"
+    starts = tuple({"mx": m, "my": m, "F0": f, "alpha": a} for m in (0.03, 0.1, 0.3) for f, a in ((0.1, 0.2), (0.6, 0.8)))
     sampling = "half vector by eqs. 16–19, pdf eq. 20"
 
     def _value(self, wi, wo, p):

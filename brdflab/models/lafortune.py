@@ -42,7 +42,13 @@ class LafortuneIso(_Lafortune):
     parameters = (
         Parameter("Cxy", -0.577, doc="weight of the tangential components", **_C),
         Parameter("Cz", 0.577, doc="weight of the normal component", **_C),
-        Parameter("Exponent", 20.0, 0.0, 100000.0, "1", "lobe exponent n"),
+        Parameter("Exponent", 20.0, 0.0, 100000.0, "1", "lobe exponent n", log=True),
+    )
+    scale_invariant = ("Cxy", "Cz")
+    starts = tuple(
+        {"Cxy": cxy, "Cz": cz, "Exponent": n}
+        for cxy, cz in ((-0.58, 0.58), (0.58, 0.58), (-0.7, 0.05))
+        for n in (10.0, 100.0, 1000.0, 10000.0)
     )
     summary = "Isotropic Lafortune lobe (n+2)/(2π) max(0, Cxy(ix ox+iy oy)+Cz iz oz)^n / max|C|^n."
 
@@ -58,7 +64,13 @@ class LafortuneAniso(_Lafortune):
         Parameter("Cx", -0.577, doc="weight of the tangent component", **_C),
         Parameter("Cy", -0.577, doc="weight of the bitangent component", **_C),
         Parameter("Cz", 0.577, doc="weight of the normal component", **_C),
-        Parameter("Exponent", 20.0, 0.0, 100000.0, "1", "lobe exponent n"),
+        Parameter("Exponent", 20.0, 0.0, 100000.0, "1", "lobe exponent n", log=True),
+    )
+    scale_invariant = ("Cx", "Cy", "Cz")
+    starts = tuple(
+        {"Cx": cx, "Cy": cy, "Cz": 0.58, "Exponent": n}
+        for cx, cy in ((-0.58, -0.58), (-0.8, -0.3), (-0.3, -0.8), (0.58, 0.58))
+        for n in (10.0, 100.0, 1000.0)
     )
     summary = "Anisotropic Lafortune lobe with separate Cx, Cy, Cz."
 

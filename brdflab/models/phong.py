@@ -11,9 +11,10 @@ from .registry import register
 @register
 class Phong(LobeModel):
     name = "Phong"
-    parameters = (Parameter("Exponent", 20.0, 0.0, 100000.0, "1", "specular exponent n"),)
+    parameters = (Parameter("Exponent", 20.0, 0.0, 100000.0, "1", "specular exponent n", log=True),)
     summary = "Energy-normalised Phong lobe around the mirror direction (Lewis 1994)."
     reference = "Phong 1975; Lafortune & Willems 1994; Schwenk 2011 §3.3.2"
+    starts = tuple({"Exponent": e} for e in (10.0, 100.0, 1000.0, 10000.0))
     sampling = "cos^n lobe around the mirror direction of wo"
 
     def _value(self, wi, wo, p):

@@ -13,9 +13,10 @@ _ROUGH = dict(lower=0.001, upper=1.0, unit="1")
 class _WardFamily(LobeModel):
     isotropic = False
     parameters = (
-        Parameter("ax", 0.1, doc="RMS slope along the tangent", **_ROUGH),
-        Parameter("ay", 0.1, doc="RMS slope along the bitangent", **_ROUGH),
+        Parameter("ax", 0.1, doc="RMS slope along the tangent", log=True, **_ROUGH),
+        Parameter("ay", 0.1, doc="RMS slope along the bitangent", log=True, **_ROUGH),
     )
+    starts = tuple({"ax": a, "ay": a} for a in (0.02, 0.08, 0.25, 0.5))
     sampling = "half vector by Ward/Walter (Kurt et al. eqs. 16–19)"
 
     def complete(self, given):

@@ -1,0 +1,243 @@
+"""The Levenberg–Marquardt fitter: recovery, robustness, cancellation, storage."""
+
+import csv
+import hashlib
+import json
+import threading
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from brdflab.cli import main
+from brdflab.errors import BRDFLabError
+from brdflab.fit import FitOptions, fit, material_from_lobes
+from brdflab.material import AnalyticMaterial, Lobe
+from brdflab.measured import MeasuredTable, read_slice, tabulate, write_merl_binary
+from brdflab.samples import TableSampleSet, analytic_grid, samples_of
+from brdflab.xmlio import load
+from conftest import DATA, needs_shared
+
+
+def truth_linear():
+    return AnalyticMaterial("truth", "Linear", 3, [
+        Lobe.create("Lambertian", [0.05, 0.03, 0.02]),
+        Lobe.create("CookTorrance", [0.6, 0.5, 0.4], m=0.18, F0=0.35),
+    ])
+
+
+def perturbed(material, factor=1.3):
+    start = material.copy()
+    for lobe in start.lobes:
+        for k, v in lobe.params.items():
+            p = lobe.model.parameter(k)
+            lobe.params[k] = float(np.clip(v * factor, p.lower, p.upper))
+        lobe.scale = [0.1] * len(lobe.scale)
+    return start
+
+
+def relative_error(a, b):
+    return abs(a - b) / abs(b)
+
+
+@pytest.fixture(scope="module")
+def linear_table():
+    return tabulate(truth_linear())
+
+
+def test_linear_strategy_recovers_known_parameters(linear_table):
+    truth = truth_linear()
+    result = fit(perturbed(truth), TableSampleSet(linear_table), FitOptions(metric="L2", ftol=1e-12))
+    assert result.status == "converged"
+    got = result.material
+    for k, v in truth.lobes[1].params.items():
+        assert relative_error(got.lobes[1].params[k], v) < 1e-4, k
+    for lt, lg in zip(truth.lobes, got.lobes):
+        np.testing.assert_allclose(lg.scale, lt.scale, rtol=1e-4)
+
+
+def test_lafortune_is_recovered_up_to_its_scale_invariance():
+    truth = AnalyticMaterial("t", "Linear", 3, [
+        Lobe.create("Lambertian", [0.03, 0.02, 0.01]),
+        Lobe.create("LafortuneIso", [0.4, 0.3, 0.2], Cxy=-0.62, Cz=0.51, Exponent=55.0),
+    ])
+    samples = analytic_grid(truth, 40)
+    start = truth.copy()
+    start.lobes[1].params.update(Cxy=-0.5, Cz=0.5, Exponent=20.0)
+    got = fit(start, samples, FitOptions(ftol=1e-12)).material.lobes[1]
+    assert relative_error(got.params["Cxy"] / got.params["Cz"], -0.62 / 0.51) < 1e-4
+    assert relative_error(got.params["Exponent"], 55.0) < 1e-4
+    np.testing.assert_allclose(got.scale, [0.4, 0.3, 0.2], rtol=1e-4)
+
+
+def test_fixed_strategy_recovers_per_channel_lobes():
+    truth = AnalyticMaterial("f", "Fixed", 3, [
+        Lobe.create("Lambertian", [0.05], 0), Lobe.create("BlinnPhong", [0.8], 0, Exponent=40.0),
+        Lobe.create("Lambertian", [0.03], 1), Lobe.create("BlinnPhong", [0.5], 1, Exponent=120.0),
+        Lobe.create("Lambertian", [0.02], 2), Lobe.create("BlinnPhong", [0.3], 2, Exponent=400.0),
+    ])
+    samples = analytic_grid(truth, 40)
+    start = truth.copy()
+    for lobe in start.lobes:
+        lobe.scale = [lobe.scale[0] * 1.5]
+        if lobe.params:
+            lobe.params["Exponent"] *= 0.7
+    result = fit(start, samples, FitOptions(ftol=1e-12))
+    for lt, lg in zip(truth.lobes, result.material.lobes):
+        assert relative_error(lg.scale[0], lt.scale[0]) < 1e-4
+        for k, v in lt.params.items():
+            assert relative_error(lg.params[k], v) < 1e-4
+
+
+def test_noise_degrades_the_fit_gracefully(linear_table):
+    truth = truth_linear()
+    rng = np.random.default_rng(5)
+    errors, ms = [], []
+    for level in (0.0, 0.02, 0.1):
+        noisy = MeasuredTable(linear_table.values * (1 + level * rng.standard_normal(linear_table.values.shape)).astype(np.float32),
+                              linear_table.valid)
+        r = fit(perturbed(truth), TableSampleSet(noisy), FitOptions(metric="cosL2"))
+        errors.append(r.error)
+        ms.append(r.material.lobes[1].params["m"])
+    assert errors[0] < errors[1] < errors[2]
+    assert relative_error(ms[1], 0.18) < 0.01 and relative_error(ms[2], 0.18) < 0.05
+
+
+def published_material(row):
+    kd = np.array([float(row[k]) for k in ("kd_r", "kd_g", "kd_b")])
+    ks = [float(row[k]) for k in ("ks_r", "ks_g", "ks_b")]
+    return AnalyticMaterial("published", "Linear", 3, [
+        Lobe.create("Lambertian", list(kd / np.pi)),
+        Lobe.create("LafortuneIso", ks, Cxy=float(row["Cxy"]), Cz=float(row["Cz"]), Exponent=float(row["n"])),
+    ])
+
+
+
+
+@needs_shared("tables", "ngan2005_lafortune_fits.csv")
+@pytest.mark.parametrize("name", ["nickel", "white-paint", "blue-fabric", "red-specular-plastic"])
+def test_real_slices_fit_better_than_published(name):
+    from brdflab.metrics import metric_error
+
+    rows = {r["material"]: r for r in csv.DictReader(open(DATA / "tables" / "ngan2005_lafortune_fits.csv"))}
+    table = read_slice(DATA / "merl_slices" / f"{name}.slice")
+    samples = samples_of(table)
+    published = metric_error(published_material(rows[name]), samples, "Ngan")
+    start = material_from_lobes(["Lambertian", "LafortuneIso"], "Linear", 3)
+    result = fit(start, samples, FitOptions(metric="Ngan", restarts=True))
+    assert np.isfinite(result.error)
+    assert result.error == pytest.approx(metric_error(result.material, samples, "Ngan"), rel=1e-6)
+    assert result.error < published
+
+
+def test_cancel_keeps_the_best_so_far(linear_table):
+    from brdflab.metrics import metric_error
+
+    cancel = threading.Event()
+    seen = []
+
+    def progress(p):
+        seen.append(p)
+        cancel.set()
+
+    start = perturbed(truth_linear(), 2.0)
+    samples = TableSampleSet(linear_table)
+    result = fit(start, samples, FitOptions(), progress, cancel)
+    assert result.status == "cancelled" and len(seen) == 1
+    assert np.isfinite(result.error)
+    # the start's scales are re-solved by NNLS, so compare with the first improvement's material
+    assert result.error <= metric_error(seen[0].material, samples, "L2") * (1 + 1e-9)
+
+
+def test_iteration_and_time_caps(linear_table):
+    r = fit(perturbed(truth_linear(), 2.0), TableSampleSet(linear_table), FitOptions(max_iterations=2, coarse_size=0))
+    assert r.status == "max-iterations" and np.isfinite(r.error)
+    r = fit(perturbed(truth_linear(), 2.0), TableSampleSet(linear_table), FitOptions(time_limit=0.0, coarse_size=0))
+    assert r.status == "time-limit" and np.isfinite(r.error)
+
+
+def test_extreme_starting_points_never_give_nan():
+    truth = truth_linear()
+    samples = analytic_grid(truth, 24)
+    for m, f0 in ((0.001, 0.0), (1.0, 1.0)):
+        start = truth.copy()
+        start.lobes[1].params.update(m=m, F0=f0)
+        r = fit(start, samples, FitOptions(metric="Ngan", compression="cbrt"))
+        assert np.isfinite(r.error)
+        for lobe in r.material.lobes:
+            assert all(np.isfinite(v) for v in lobe.params.values()) and all(np.isfinite(lobe.scale))
+
+
+def test_compression_still_reports_the_named_metric():
+    from brdflab.metrics import metric_error
+
+    truth = truth_linear()
+    samples = analytic_grid(truth, 24)
+    samples.values *= 1 + 0.05 * np.random.default_rng(2).standard_normal(samples.values.shape)
+    start = perturbed(truth)
+    r = fit(start, samples, FitOptions(metric="cosL2", compression="log"))
+    assert r.error > 1e-4
+    assert r.error == pytest.approx(metric_error(r.material, samples, "cosL2"), rel=1e-6)
+
+
+def test_memory_stays_under_three_tables(linear_table):
+    table_bytes = linear_table.values.size * 4
+    tracemalloc.start()
+    fit(perturbed(truth_linear()), TableSampleSet(linear_table), FitOptions())
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert peak < 3 * table_bytes, peak / table_bytes
+
+
+def test_source_without_valid_samples_is_an_error():
+    table = tabulate(truth_linear())
+    table.valid[:] = False
+    with pytest.raises(BRDFLabError, match="no valid samples"):
+        TableSampleSet(table)
+
+
+def test_bad_options():
+    with pytest.raises(BRDFLabError, match="unknown metric"):
+        FitOptions(metric="L3").validate()
+    with pytest.raises(BRDFLabError, match="unknown lobe model 'Nope'"):
+        material_from_lobes(["Lambertian", "Nope"], "Linear", 3)
+
+
+# --- the command line ------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def merl_path(tmp_path_factory, linear_table):
+    path = tmp_path_factory.mktemp("fit") / "truth.binary"
+    write_merl_binary(linear_table, path)
+    return path
+
+
+def test_fit_command_stores_a_fitting_and_refits_from_it(tmp_path, merl_path, capsys):
+    out = tmp_path / "fit.xml"
+    code = main(["fit", str(merl_path), "--lobes", "Lambertian,CookTorrance", "--metric", "cosL2",
+                 "--out", str(out), "--json"])
+    assert code == 0
+    payload = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert {"error", "metric", "seconds", "iterations", "evaluations", "status", "parameters"} <= set(payload)
+    doc = load(out)
+    assert doc.material.type == "MERLBRDFDatabase" and doc.material.sha256
+    assert len(doc.fittings) == 1 and doc.fittings[0].statistics["metric"] == "cosL2"
+    # fitting again from the stored fit continues from it
+    code = main(["fit", str(out), "--init", str(out), "--metric", "cosL2", "--out", str(out), "--json"])
+    assert code == 0
+    again = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert again["error"] <= payload["error"] * (1 + 1e-9)
+    assert again["iterations"] <= 5
+    assert len(load(out).fittings) == 2
+
+
+def test_failed_fit_leaves_existing_fits_untouched(tmp_path, merl_path, capsys):
+    out = tmp_path / "fit.xml"
+    assert main(["fit", str(merl_path), "--lobes", "Lambertian", "--out", str(out)]) == 0
+    digest = hashlib.sha256(out.read_bytes()).hexdigest()
+    capsys.readouterr()
+    for argv in (["--lobes", "Lambertian,Wardd"], ["--lobes", "Lambertian", "--metric", "L3"], ["--init", str(tmp_path / "none.xml")]):
+        assert main(["fit", str(out), *argv, "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert hashlib.sha256(out.read_bytes()).hexdigest() == digest
