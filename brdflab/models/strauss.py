@@ -10,13 +10,20 @@ KF, KG, KJ = 1.12, 1.01, 0.1
 
 
 def strauss_fresnel(theta):
+    """(1/(x−kf)² − 1/kf²) / (1/(1−kf)² − 1/kf²), x = θ/(π/2), written without the
+    cancellation of the differences of large reciprocals (1/A² − 1/B² = (B−A)(B+A)/(AB)²)."""
     x = theta / (0.5 * np.pi)
-    return (1.0 / (x - KF) ** 2 - 1.0 / KF**2) / (1.0 / (1.0 - KF) ** 2 - 1.0 / KF**2)
+    num = x * (2.0 * KF - x) / (KF * (x - KF)) ** 2
+    den = (2.0 * KF - 1.0) / (KF * (1.0 - KF)) ** 2
+    return num / den
 
 
 def strauss_shadow(theta):
+    """(1/(1−kg)² − 1/(x−kg)²) / (1/(1−kg)² − 1/kg²), in the same stable form."""
     x = theta / (0.5 * np.pi)
-    return (1.0 / (1.0 - KG) ** 2 - 1.0 / (x - KG) ** 2) / (1.0 / (1.0 - KG) ** 2 - 1.0 / KG**2)
+    num = (1.0 - x) * (1.0 + x - 2.0 * KG) / ((1.0 - KG) * (x - KG)) ** 2
+    den = (1.0 - 2.0 * KG) / (KG * (1.0 - KG)) ** 2
+    return num / den
 
 
 @register

@@ -1,0 +1,230 @@
+"""HDR environment maps (lat-long, +Y up) and images: Radiance RGBE and OpenEXR.
+
+Directions map to texture coordinates as in CONVENTIONS.md:
+u = 0.5 + atan2(d.x, −d.z) / (2π), v = acos(d.y) / π, row 0 at the top.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import BRDFLabError
+
+MAX_PIXELS = 64 * 1024 * 1024
+
+
+@dataclass
+class EnvironmentMap:
+    """Linear radiance, float32, shape (H, W, 3), row 0 = top (v = 0)."""
+
+    data: np.ndarray
+    name: str = "environment"
+    path: Path | None = None
+
+    @property
+    def width(self) -> int:
+        return self.data.shape[1]
+
+    @property
+    def height(self) -> int:
+        return self.data.shape[0]
+
+    def texel_directions(self) -> tuple[np.ndarray, np.ndarray]:
+        """World direction of each texel centre (H, W, 3) and its solid angle (H, 1)."""
+        h, w = self.height, self.width
+        v = (np.arange(h) + 0.5) / h
+        u = (np.arange(w) + 0.5) / w
+        theta = v * np.pi
+        phi = (u - 0.5) * 2.0 * np.pi
+        st = np.sin(theta)[:, None]
+        d = np.stack(np.broadcast_arrays(st * np.sin(phi)[None, :], np.cos(theta)[:, None], -st * np.cos(phi)[None, :]), axis=-1)
+        solid = (2.0 * np.pi / w) * (np.cos(np.pi * np.arange(h) / h) - np.cos(np.pi * (np.arange(h) + 1) / h))
+        return d, solid[:, None]
+
+    def downsampled(self, width: int, height: int) -> "EnvironmentMap":
+        """Area-average to width × height (each output texel averages the input texels it
+        covers, weighted by solid angle) — used for quadrature references."""
+        if self.width % width or self.height % height:
+            raise BRDFLabError(f"cannot reduce {self.width}×{self.height} to {width}×{height} evenly", self.path)
+        fy, fx = self.height // height, self.width // width
+        _, solid = self.texel_directions()
+        weighted = (self.data * solid[:, :, None]).reshape(height, fy, width, fx, 3).sum(axis=(1, 3))
+        area = np.broadcast_to(solid, (self.height, self.width)).reshape(height, fy, width, fx).sum(axis=(1, 3))
+        return EnvironmentMap((weighted / area[:, :, None]).astype(np.float32), self.name, self.path)
+
+    def rotated(self, yaw_degrees: float) -> "EnvironmentMap":
+        """The map turned about +Y (texel columns rolled; exact for multiples of a texel)."""
+        shift = int(round(yaw_degrees / 360.0 * self.width))
+        return EnvironmentMap(np.roll(self.data, shift, axis=1), self.name, self.path)
+
+
+def direction_to_uv(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u = 0.5 + np.arctan2(d[..., 0], -d[..., 2]) / (2.0 * np.pi)
+    v = np.arccos(np.clip(d[..., 1], -1.0, 1.0)) / np.pi
+    return u, v
+
+
+def constant(value: float | tuple = 1.0, width: int = 64, height: int = 32) -> EnvironmentMap:
+    return EnvironmentMap(np.broadcast_to(np.asarray(value, np.float32), (height, width, 3)).copy(), "constant")
+
+
+# --------------------------------------------------------------------------------------------
+# Radiance RGBE
+
+def _rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
+    e = rgbe[..., 3].astype(np.int32)
+    scale = np.where(e > 0, np.ldexp(1.0, e - 136), 0.0).astype(np.float32)
+    return rgbe[..., :3].astype(np.float32) * scale[..., None]
+
+
+def read_hdr(path: str | os.PathLike) -> np.ndarray:
+    """Radiance .hdr (RGBE, flat or new-style run-length encoded) → (H, W, 3) float32."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise BRDFLabError(f"cannot read: {e.strerror}", path) from None
+    if not (data.startswith(b"#?RADIANCE") or data.startswith(b"#?RGBE")):
+        raise BRDFLabError("not a Radiance HDR file (no #?RADIANCE signature)", path)
+    pos = 0
+    fmt = None
+    while True:
+        end = data.find(b"\n", pos)
+        if end < 0:
+            raise BRDFLabError("truncated header", path)
+        line = data[pos:end].strip()
+        pos = end + 1
+        if not line:
+            break
+        if line.startswith(b"FORMAT="):
+            fmt = line[7:]
+    if fmt not in (None, b"32-bit_rle_rgbe"):
+        raise BRDFLabError(f"unsupported format {fmt.decode(errors='replace')}", path)
+    end = data.find(b"\n", pos)
+    if end < 0:
+        raise BRDFLabError("truncated: no resolution line", path)
+    res = data[pos:end].split()
+    pos = end + 1
+    if len(res) != 4 or res[0] not in (b"-Y", b"+Y") or res[2] not in (b"+X", b"-X"):
+        raise BRDFLabError(f"unsupported resolution line {b' '.join(res).decode(errors='replace')!r}", path)
+    try:
+        h, w = int(res[1]), int(res[3])
+    except ValueError:
+        raise BRDFLabError("bad resolution line", path) from None
+    if h < 1 or w < 1 or h * w > MAX_PIXELS:
+        raise BRDFLabError(f"unsupported image size {w}×{h}", path)
+    body = np.frombuffer(data, np.uint8, offset=pos)
+    out = np.empty((h, w, 4), np.uint8)
+    i = 0
+    for y in range(h):
+        if i + 4 > body.size:
+            raise BRDFLabError(f"truncated at scanline {y} of {h}", path)
+        if 8 <= w < 32768 and body[i] == 2 and body[i + 1] == 2 and (int(body[i + 2]) << 8 | int(body[i + 3])) == w:
+            i += 4
+            for c in range(4):
+                x = 0
+                row = out[y, :, c]
+                while x < w:
+                    if i >= body.size:
+                        raise BRDFLabError(f"truncated at scanline {y} of {h}", path)
+                    n = int(body[i])
+                    i += 1
+                    if n > 128:
+                        n -= 128
+                        if x + n > w or i >= body.size:
+                            raise BRDFLabError(f"corrupt run at scanline {y}", path)
+                        row[x:x + n] = body[i]
+                        i += 1
+                    else:
+                        if n == 0 or x + n > w or i + n > body.size:
+                            raise BRDFLabError(f"corrupt data at scanline {y}", path)
+                        row[x:x + n] = body[i:i + n]
+                        i += n
+                    x += n
+        else:
+            if i + 4 * w > body.size:
+                raise BRDFLabError(f"truncated at scanline {y} of {h}", path)
+            out[y] = body[i:i + 4 * w].reshape(w, 4)
+            i += 4 * w
+    img = _rgbe_to_float(out)
+    if res[0] == b"+Y":
+        img = img[::-1]
+    if res[2] == b"-X":
+        img = img[:, ::-1]
+    return np.ascontiguousarray(img)
+
+
+# --------------------------------------------------------------------------------------------
+# OpenEXR
+
+def read_exr(path: str | os.PathLike) -> np.ndarray:
+    """OpenEXR (any compression the library supports) → (H, W, 3) float32."""
+    import OpenEXR
+
+    path = Path(path)
+    if not path.is_file():
+        raise BRDFLabError("no such file", path)
+    try:
+        with OpenEXR.File(str(path)) as f:
+            channels = f.channels()
+            if "RGB" in channels:
+                img = np.asarray(channels["RGB"].pixels, np.float32)
+            elif "RGBA" in channels:
+                img = np.asarray(channels["RGBA"].pixels, np.float32)[..., :3]
+            elif all(c in channels for c in "RGB"):
+                img = np.stack([np.asarray(channels[c].pixels, np.float32) for c in "RGB"], axis=-1)
+            elif "Y" in channels:
+                img = np.repeat(np.asarray(channels["Y"].pixels, np.float32)[..., None], 3, axis=-1)
+            else:
+                raise BRDFLabError(f"no RGB or Y channels (has {', '.join(channels)})", path)
+    except BRDFLabError:
+        raise
+    except Exception as e:  # the library reports corrupt files with assorted exception types
+        raise BRDFLabError(f"cannot decode OpenEXR: {str(e).splitlines()[0] if str(e) else type(e).__name__}", path) from None
+    if img.ndim != 3 or img.shape[0] < 1 or img.shape[1] < 1:
+        raise BRDFLabError(f"unexpected image shape {img.shape}", path)
+    return np.ascontiguousarray(img)
+
+
+def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write linear float32 RGB (H, W, 3) as OpenEXR (ZIP compression), atomically."""
+    import OpenEXR
+
+    from .xmlio import atomic_write
+
+    path = Path(path)
+    img = np.ascontiguousarray(image[..., :3], np.float32)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    tmp = path.with_name(f".{path.name}.tmp.exr")
+    try:
+        with OpenEXR.File(header, {"RGB": img}) as f:
+            f.write(str(tmp))
+        atomic_write(path, tmp.read_bytes())
+    except OSError as e:
+        raise BRDFLabError(f"cannot write: {e.strerror}", path) from None
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def load_environment(path: str | os.PathLike) -> EnvironmentMap:
+    """An environment map from .hdr or .exr, checked for size and finite values."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext in (".hdr", ".pic", ".rgbe"):
+        data = read_hdr(path)
+    elif ext == ".exr":
+        data = read_exr(path)
+    else:
+        raise BRDFLabError(f"unsupported environment map type {ext!r} (use .hdr or .exr)", path)
+    if data.shape[0] < 2 or data.shape[1] < 4:
+        raise BRDFLabError(f"map of {data.shape[1]}×{data.shape[0]} texels is too small", path)
+    bad = ~np.isfinite(data)
+    if bad.any():
+        raise BRDFLabError(f"{int(bad.sum())} texel values are NaN or Inf", path)
+    if (data < 0).any():
+        data = np.maximum(data, 0.0)
+    return EnvironmentMap(data, path.stem, path)

@@ -1,0 +1,100 @@
+"""GLSL programs assembled from the lobe registry.
+
+Each model's GLSL lives in `shaders/<Model>.glsl` (brdf_<Model>, and sample_<Model> /
+pdf_<Model> if it is samplable). A material's code is generated from its lobes: lobe
+parameters, per-channel scales and sampling shares are uniforms, so editing a parameter
+never recompiles; only a different list of models does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..material import AnalyticMaterial
+from ..models import LobeModel
+from ..resources import shader_path
+
+MAX_PARAMS = 8
+GLSL_VERSION = "#version 330 core\n"
+
+
+def shader_source(name: str) -> str:
+    return shader_path(name).read_text()
+
+
+def model_source(model: LobeModel) -> str:
+    return shader_source(f"{model.name}.glsl")
+
+
+def material_source(models: tuple[str, ...]) -> str:
+    """GLSL for a material made of these models (in lobe order): material_eval(wi, wo)
+    → RGB, material_sample(k, wo, u) and the mixture density material_pdf(wi, wo)."""
+    from ..models import get_model
+
+    n = len(models)
+    parts = [shader_source("common.glsl")]
+    for name in dict.fromkeys(models):
+        parts.append(model_source(get_model(name)))
+    lines = [
+        f"#define N_LOBES {n}",
+        f"uniform float u_lobe_p[{MAX_PARAMS * n}];",
+        f"uniform vec3 u_lobe_scale[{n}];",
+        f"uniform float u_lobe_share[{n}];",
+        "float[8] lobe_params(int k) {",
+        "    float p[8];",
+        "    for (int i = 0; i < 8; i++) p[i] = u_lobe_p[8 * k + i];",
+        "    return p;",
+        "}",
+        "vec3 material_eval(vec3 wi, vec3 wo) {",
+        "    if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);",
+        "    vec3 f = vec3(0.0);",
+        "    float v;",
+    ]
+    for k, name in enumerate(models):
+        lines.append(f"    v = brdf_{name}(wi, wo, lobe_params({k}));")
+        lines.append(f"    if (!(isnan(v) || isinf(v))) f += u_lobe_scale[{k}] * v;")
+    lines += ["    return f;", "}", "vec3 material_sample(int k, vec3 wo, vec2 u) {"]
+    for k, name in enumerate(models):
+        sampler = f"sample_{name}(wo, u, lobe_params({k}))" if get_model(name).samplable else "cosine_hemisphere(u)"
+        lines.append(f"    if (k == {k}) return {sampler};")
+    lines += ["    return cosine_hemisphere(u);", "}", "float material_pdf(vec3 wi, vec3 wo) {", "    float p = 0.0;"]
+    for k, name in enumerate(models):
+        pdf = f"pdf_{name}(wi, wo, lobe_params({k}))" if get_model(name).samplable else "cosine_hemisphere_pdf(wi)"
+        lines.append(f"    p += u_lobe_share[{k}] * {pdf};")
+    lines += ["    return p;", "}"]
+    return "\n".join(parts + lines) + "\n"
+
+
+def lobe_uniforms(material: AnalyticMaterial, shares: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Uniform values of a material: parameters, RGB scales (Fixed lobes scale their own
+    channel; one-channel materials are grey) and sampling shares."""
+    n = len(material.lobes)
+    params = np.zeros((n, MAX_PARAMS), np.float32)
+    scales = np.zeros((n, 3), np.float32)
+    for k, lobe in enumerate(material.lobes):
+        values = [lobe.params[p] for p in lobe.model.parameter_names]
+        params[k, : len(values)] = values
+        if material.combination == "Linear":
+            s = np.asarray(lobe.scale, float)
+            scales[k] = s[:3] if s.size >= 3 else np.repeat(s[0], 3)
+        elif material.n_channels == 1:
+            scales[k] = lobe.scale[0]
+        elif lobe.channel < 3:
+            scales[k, lobe.channel] = lobe.scale[0]
+    if shares is None:
+        shares = np.full(n, 1.0 / n)
+    return {"u_lobe_p": params.ravel(), "u_lobe_scale": scales.ravel(), "u_lobe_share": np.asarray(shares, np.float32)}
+
+
+def set_uniforms(program, values: dict[str, np.ndarray]) -> None:
+    """Write uniform arrays, trimmed to what the compiler kept (unused tails are dropped)."""
+    for name, value in values.items():
+        if name in program:
+            uniform = program[name]
+            size = uniform.array_length * uniform.dimension
+            flat = np.ascontiguousarray(value, np.float32).ravel()
+            uniform.write(np.pad(flat, (0, max(0, size - flat.size)))[:size].tobytes())
+
+
+def models_of(material: AnalyticMaterial) -> tuple[str, ...]:
+    return tuple(l.model.name for l in material.lobes)

@@ -1,0 +1,105 @@
+// Helpers shared by every lobe model (the GLSL twins of brdflab/vec.py and sampling.py).
+// Directions are in the local frame: z = normal. Parameters come as float p[8] in the
+// order the model declares them.
+const float PI = 3.14159265358979;
+const float TINY = 1e-12;
+
+float schlick(float f0, float c) {
+    float m = clamp(1.0 - c, 0.0, 1.0);
+    float m2 = m * m;
+    return f0 + (1.0 - f0) * m2 * m2 * m;
+}
+
+float safe_pow(float x, float n) { return x <= 0.0 ? (n == 0.0 ? 1.0 : 0.0) : exp(n * log(x)); }
+
+vec3 half_vec(vec3 wi, vec3 wo) { return normalize(wi + wo); }
+
+vec3 mirror_z(vec3 w) { return vec3(-w.x, -w.y, w.z); }
+
+void frame_around(vec3 a, out vec3 t, out vec3 b) {
+    float s = a.z >= 0.0 ? 1.0 : -1.0;
+    float k = -1.0 / (s + a.z);
+    float q = a.x * a.y * k;
+    t = vec3(1.0 + s * a.x * a.x * k, s * q, -s * a.x);
+    b = vec3(q, s + a.y * a.y * k, -a.y);
+}
+
+vec3 cosine_hemisphere(vec2 u) {
+    float r = sqrt(u.x);
+    float phi = 2.0 * PI * u.y;
+    return vec3(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u.x)));
+}
+
+float cosine_hemisphere_pdf(vec3 wi) { return max(wi.z, 0.0) / PI; }
+
+vec3 cosine_power_around(vec3 axis, float n, vec2 u) {
+    float c = pow(max(u.x, 1e-30), 1.0 / (n + 1.0));
+    float s = sqrt(max(0.0, 1.0 - c * c));
+    float phi = 2.0 * PI * u.y;
+    vec3 t, b;
+    frame_around(axis, t, b);
+    return s * cos(phi) * t + s * sin(phi) * b + c * axis;
+}
+
+float cosine_power_pdf(vec3 w, vec3 axis, float n) { return (n + 1.0) / (2.0 * PI) * safe_pow(max(dot(w, axis), 0.0), n); }
+
+vec3 stable_axis(vec3 v) { float l = length(v); return l > 1e-9 ? v / l : vec3(0.0, 0.0, 1.0); }
+
+vec3 reflect_about(vec3 wo, vec3 h) { return 2.0 * dot(wo, h) * h - wo; }
+
+// half vector of (wi, wo) flipped into the upper hemisphere, as in sampling.upper_half_vector
+vec3 upper_half(vec3 wi, vec3 wo) { vec3 h = normalize(wi + wo); return h.z < 0.0 ? -h : h; }
+
+float beckmann_d(vec3 h, float mx, float my) {
+    if (h.z <= 0.0) return 0.0;
+    float hz2 = h.z * h.z;
+    float e = (h.x * h.x / (mx * mx) + h.y * h.y / (my * my)) / hz2;
+    return exp(-e) / (PI * mx * my * hz2 * hz2);
+}
+
+vec3 beckmann_half(float mx, float my, vec2 u) {
+    float phase = 2.0 * PI * u.y;
+    float phi = atan(my * sin(phase), mx * cos(phase));
+    float c = cos(phi), s = sin(phi);
+    float tan2 = -log(max(1.0 - u.x, TINY)) / (c * c / (mx * mx) + s * s / (my * my));
+    float ct = 1.0 / sqrt(1.0 + tan2);
+    float st = sqrt(max(0.0, 1.0 - ct * ct));
+    return vec3(st * c, st * s, ct);
+}
+
+float ggx_d(vec3 h, float a) {
+    if (h.z <= 0.0) return 0.0;
+    float a2 = a * a, hz2 = h.z * h.z;
+    float d = PI * (hz2 * (a2 - 1.0) + 1.0) * (hz2 * (a2 - 1.0) + 1.0);
+    return a2 / max(d, TINY);
+}
+
+vec3 ggx_half(float a, vec2 u) {
+    float tan2 = a * a * u.x / max(1.0 - u.x, TINY);
+    float ct = 1.0 / sqrt(1.0 + tan2);
+    float st = sqrt(max(0.0, 1.0 - ct * ct));
+    float phi = 2.0 * PI * u.y;
+    return vec3(st * cos(phi), st * sin(phi), ct);
+}
+
+float half_pdf_from(float pdf_h, vec3 wi, vec3 wo) {
+    vec3 h = upper_half(wi, wo);
+    float woh = abs(dot(wo, h));
+    return woh > TINY ? pdf_h / (4.0 * woh) : 0.0;
+}
+
+// acos to float precision (Abramowitz & Stegun 4.4.46, |error| ≤ 2e-8); GLSL leaves the
+// precision of the built-in to the implementation, and Mesa's is far coarser.
+float precise_acos(float x) {
+    float a = abs(clamp(x, -1.0, 1.0));
+    float p = -0.0012624911;
+    p = p * a + 0.0066700901;
+    p = p * a - 0.0170881256;
+    p = p * a + 0.0308918810;
+    p = p * a - 0.0501743046;
+    p = p * a + 0.0889789874;
+    p = p * a - 0.2145988016;
+    p = p * a + 1.5707963050;
+    float r = sqrt(1.0 - a) * p;
+    return x < 0.0 ? PI - r : r;
+}
