@@ -145,6 +145,69 @@ def cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _vector(text: str, n: int, what: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise BRDFLabError(f"{what} {text!r}: expected {n} comma-separated numbers") from None
+    if len(values) != n or not all(np.isfinite(values)):
+        raise BRDFLabError(f"{what} {text!r}: expected {n} finite comma-separated numbers")
+    return values
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    import time
+
+    from .envmap import load_environment, write_exr
+    from .mesh import default_mesh, load_mesh
+    from .render.context import create_context
+    from .render.object_view import ObjectRenderer, RenderSettings
+    from .resources import data_dir
+    from .sources import load_source
+    from .tonemap import write_png
+
+    out = Path(args.out)
+    if out.suffix.lower() not in (".exr", ".png"):
+        raise BRDFLabError("the output must be .exr (linear) or .png (tone-mapped)", out)
+    width, height = (int(v) for v in _vector(args.size, 2, "--size"))
+    if not (1 <= width <= 8192 and 1 <= height <= 8192):
+        raise BRDFLabError(f"--size {args.size}: each side must be 1..8192")
+    light = _vector(args.light, 3, "--light")
+    if np.linalg.norm(light) < 1e-12:
+        raise BRDFLabError("--light must not be the zero vector")
+    if args.samples < 1:
+        raise BRDFLabError("--samples must be at least 1")
+    source = load_source(Path(args.material), fitting=args.fitting)
+    settings = RenderSettings(mode=args.mode, width=width, height=height, samples=args.samples, light=light,
+                              env_rotation=args.env_rotation, reference_view=args.view == "reference")
+    ctx = create_context()
+    renderer = ObjectRenderer(ctx)
+    renderer.set_source(source)
+    if args.view != "reference":
+        renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
+    if args.mode in ("fis", "sh"):
+        env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
+        renderer.set_environment(load_environment(env_path))
+    if args.mode == "sh":
+        renderer.sh_order = args.sh_order
+    renderer.render(RenderSettings(**{**settings.__dict__, "width": 8, "height": 8, "samples": 1}))  # compile
+    t0 = time.perf_counter()
+    image = renderer.render(settings)
+    seconds = time.perf_counter() - t0
+    if out.suffix.lower() == ".exr":
+        write_exr(out, image)
+    else:
+        write_png(out, image, exposure=args.exposure)
+    payload = {
+        "out": str(out), "seconds": seconds, "frame_ms": seconds * 1e3,
+        "settings": {"mode": args.mode, "view": args.view, "mesh": args.mesh if args.view != "reference" else "sphere",
+                     "size": [width, height], "samples": args.samples, "light": light, "sh_order": args.sh_order,
+                     "env": args.env, "renderer": ctx.info.get("GL_RENDERER", "")},
+    }
+    _emit(args, payload, f"wrote {out} ({width}×{height}, {args.mode}, {seconds * 1e3:.1f} ms)")
+    return 0
+
+
 def cmd_gui(args: argparse.Namespace) -> int:
     from .gui.app import run
 
@@ -196,6 +259,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="write the source's XML with the new <Fitting> here")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser("render", help="offscreen render of a material")
+    p.add_argument("material", help="XML material or measured data file")
+    p.add_argument("--mode", choices=["point", "fis", "sh"], default="point")
+    p.add_argument("--view", choices=["reference", "orbit"], default="orbit")
+    p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")
+    p.add_argument("--env", help="environment map (.hdr or .exr); default: the shipped CC0 map")
+    p.add_argument("--env-rotation", type=float, default=0.0, help="degrees about +Y")
+    p.add_argument("--light", default="0,0,1", help="direction towards the light, X,Y,Z (world)")
+    p.add_argument("--samples", type=int, default=64)
+    p.add_argument("--sh-order", type=int, default=5)
+    p.add_argument("--size", default="512,512", help="W,H")
+    p.add_argument("--exposure", type=float, default=0.0, help="stops, for .png output")
+    p.add_argument("--fitting", type=int, default=None, help="render the K-th stored fit")
+    p.add_argument("--out", required=True)
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_render)
     return parser
 
 

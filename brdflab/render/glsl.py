@@ -26,9 +26,12 @@ def model_source(model: LobeModel) -> str:
     return shader_source(f"{model.name}.glsl")
 
 
-def material_source(models: tuple[str, ...]) -> str:
+def material_source(models: tuple[str, ...], measured: bool = False) -> str:
     """GLSL for a material made of these models (in lobe order): material_eval(wi, wo)
-    → RGB, material_sample(k, wo, u) and the mixture density material_pdf(wi, wo)."""
+    → RGB, material_sample(k, wo, u) and the mixture density material_pdf(wi, wo).
+
+    measured=True: material_eval reads the measured table (shaders/measured.glsl) and the
+    lobes are only a fitted proxy that importance-samples it."""
     from ..models import get_model
 
     n = len(models)
@@ -53,7 +56,12 @@ def material_source(models: tuple[str, ...]) -> str:
     for k, name in enumerate(models):
         lines.append(f"    v = brdf_{name}(wi, wo, lobe_params({k}));")
         lines.append(f"    if (!(isnan(v) || isinf(v))) f += u_lobe_scale[{k}] * v;")
-    lines += ["    return f;", "}", "vec3 material_sample(int k, vec3 wo, vec2 u) {"]
+    if measured:
+        lines += ["    return measured_eval(wi, wo);", "}"]
+        parts.append(shader_source("measured.glsl"))
+    else:
+        lines += ["    return f;", "}"]
+    lines += ["vec3 material_sample(int k, vec3 wo, vec2 u) {"]
     for k, name in enumerate(models):
         sampler = f"sample_{name}(wo, u, lobe_params({k}))" if get_model(name).samplable else "cosine_hemisphere(u)"
         lines.append(f"    if (k == {k}) return {sampler};")

@@ -1,0 +1,56 @@
+"""Orbit camera matrices (column-major for OpenGL)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class OrbitCamera:
+    """Looks at the origin from `distance`, turned by yaw (about +Y) and pitch (degrees)."""
+
+    yaw: float = 30.0
+    pitch: float = 20.0
+    distance: float = 3.2
+    fov: float = 35.0
+
+    @property
+    def position(self) -> np.ndarray:
+        y, p = math.radians(self.yaw), math.radians(self.pitch)
+        return self.distance * np.array([math.cos(p) * math.sin(y), math.sin(p), math.cos(p) * math.cos(y)])
+
+    def view(self) -> np.ndarray:
+        eye = self.position
+        f = -eye / np.linalg.norm(eye)
+        up = np.array([0.0, 1.0, 0.0])
+        s = np.cross(f, up)
+        s /= max(np.linalg.norm(s), 1e-12)
+        u = np.cross(s, f)
+        m = np.eye(4)
+        m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+        m[:3, 3] = -m[:3, :3] @ eye
+        return m
+
+    def projection(self, aspect: float) -> np.ndarray:
+        f = 1.0 / math.tan(math.radians(self.fov) / 2.0)
+        near, far = 0.05, 50.0
+        m = np.zeros((4, 4))
+        m[0, 0], m[1, 1] = f / aspect, f
+        m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
+        m[3, 2] = -1.0
+        return m
+
+    def orbit(self, d_yaw: float, d_pitch: float) -> None:
+        self.yaw = (self.yaw + d_yaw) % 360.0
+        self.pitch = float(np.clip(self.pitch + d_pitch, -89.0, 89.0))
+
+    def zoom(self, factor: float) -> None:
+        self.distance = float(np.clip(self.distance * factor, 1.2, 20.0))
+
+
+def gl_matrix(m: np.ndarray) -> bytes:
+    """A row-major NumPy matrix as the column-major bytes OpenGL expects."""
+    return np.ascontiguousarray(m.T, dtype=np.float32).tobytes()

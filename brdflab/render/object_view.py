@@ -1,0 +1,251 @@
+"""The object view (BRDFLab §7): a material on a mesh or on the reference sphere, lit by a
+point light or by an HDR environment through filtered importance sampling.
+
+Renders into float targets in any moderngl context; `render()` returns linear radiance.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from ..envmap import EnvironmentMap
+from ..errors import BRDFLabError
+from ..material import AnalyticMaterial
+from ..measured import MeasuredTable, tabulate
+from ..mesh import Mesh
+from .camera import OrbitCamera, gl_matrix
+from .glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
+from .sampling_sets import lobe_shares, sample_set
+
+MODES = ("point", "fis")
+BATCH = 32  # samples per draw: keeps each draw short on software rasterisers
+
+
+@dataclass
+class RenderSettings:
+    mode: str = "point"
+    width: int = 512
+    height: int = 512
+    samples: int = 64
+    light: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    light_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    env_rotation: float = 0.0  # degrees about +Y
+    reference_view: bool = True
+
+
+def _set(program: moderngl.Program, name: str, value) -> None:
+    """Set a uniform if the compiled program kept it."""
+    if name in program:
+        program[name].value = value
+
+
+def proxy_lobes(table: MeasuredTable) -> AnalyticMaterial:
+    """A Lambertian + Cook–Torrance fit of a measured table (Ngan metric, a stratified
+    subset): the distribution that importance-samples it."""
+    from ..fit import FitOptions, fit, material_from_lobes
+    from ..samples import samples_of
+
+    start = material_from_lobes(["Lambertian", "CookTorrance"], "Linear", 3)
+    result = fit(start, samples_of(table, "subset", size=20_000), FitOptions(metric="Ngan", coarse_size=0, max_iterations=60))
+    for lobe in result.material.lobes:  # a lobe the fit switched off still deserves samples
+        lobe.scale = [max(s, 1e-6) for s in lobe.scale]
+    return result.material
+
+
+class ObjectRenderer:
+    """Holds the GPU state of one object view: programs, mesh, environment, material."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self._programs: dict[tuple, moderngl.Program] = {}
+        self._mesh_vao: dict[tuple, moderngl.VertexArray] = {}
+        self.mesh: Mesh | None = None
+        self._mesh_buffers: tuple | None = None
+        self.material: AnalyticMaterial | None = None
+        self.measured = False
+        self.table_texture: moderngl.Texture3D | None = None
+        self.table_size = (1, 1, 1)
+        self._uniforms: dict = {}
+        self._shares = np.ones(1)
+        self.env_texture: moderngl.Texture | None = None
+        self.env_size = (1, 1)
+        self.camera = OrbitCamera()
+        self._empty_vao = ctx.vertex_array(self._program(("Lambertian",), "point", True), [])
+
+    # --- state ----------------------------------------------------------------------------
+    def set_material(self, material: AnalyticMaterial) -> None:
+        if not material.lobes:
+            raise BRDFLabError("the material has no lobes to render")
+        material.validate()
+        self.material = material
+        self.measured = False
+        self._shares = lobe_shares(material)
+        self._uniforms = lobe_uniforms(material, self._shares)
+
+    def set_source(self, source) -> None:
+        """Any source: analytic materials directly; measured ones as a table texture,
+        importance-sampled through a fitted proxy (Lambertian + Cook–Torrance)."""
+        if isinstance(source, AnalyticMaterial):
+            self.set_material(source)
+            return
+        table = source if isinstance(source, MeasuredTable) else tabulate(source, phi_d_samples=1)
+        self.set_material(proxy_lobes(table))
+        self.measured = True
+        if self.table_texture is not None:
+            self.table_texture.release()
+        values = np.ascontiguousarray(np.moveaxis(table.values[:3], 0, -1), np.float32)  # (θh, θd, φd, 3)
+        tex = self.ctx.texture3d((values.shape[2], values.shape[1], values.shape[0]), 3, values.tobytes(), dtype="f4")
+        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        tex.repeat_x, tex.repeat_y, tex.repeat_z = True, False, False
+        self.table_texture = tex
+        self.table_size = (values.shape[2], values.shape[1], values.shape[0])
+
+    def set_mesh(self, mesh: Mesh | None) -> None:
+        """A mesh to draw, or None for the reference view's sphere."""
+        for vao in self._mesh_vao.values():
+            vao.release()
+        self._mesh_vao.clear()
+        if self._mesh_buffers:
+            for b in self._mesh_buffers:
+                b.release()
+        self.mesh = mesh
+        self._mesh_buffers = None
+        if mesh is not None:
+            self._mesh_buffers = (self.ctx.buffer(mesh.interleaved().tobytes()), self.ctx.buffer(mesh.faces.tobytes()))
+
+    def set_environment(self, env: EnvironmentMap) -> None:
+        if self.env_texture is not None:
+            self.env_texture.release()
+        tex = self.ctx.texture((env.width, env.height), 3, np.ascontiguousarray(env.data, np.float32).tobytes(), dtype="f4")
+        tex.build_mipmaps()
+        tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        tex.repeat_x, tex.repeat_y = True, False
+        self.env_texture = tex
+        self.env_size = (env.width, env.height)
+
+    # --- programs -------------------------------------------------------------------------
+    def _program(self, models: tuple[str, ...], mode: str, reference: bool, measured: bool = False) -> moderngl.Program:
+        key = (models, mode, reference, measured)
+        if key not in self._programs:
+            defines = f"#define MODE_{mode.upper()}\n" + ("#define GEOMETRY_REFERENCE\n" if reference else "")
+            material = material_source(models, measured)
+            self._programs[key] = self.ctx.program(
+                vertex_shader=GLSL_VERSION + defines + shader_source("object_vertex.glsl"),
+                fragment_shader=GLSL_VERSION + defines + material + shader_source("object_fragment.glsl"),
+            )
+        return self._programs[key]
+
+    def _vao(self, program: moderngl.Program, key: tuple) -> moderngl.VertexArray:
+        if key not in self._mesh_vao:
+            vbo, ibo = self._mesh_buffers
+            self._mesh_vao[key] = self.ctx.vertex_array(
+                program, [(vbo, "3f 3f 3f", "in_position", "in_normal", "in_tangent")], index_buffer=ibo,
+                index_element_size=4, skip_errors=True)  # attributes a program does not use are fine
+        return self._mesh_vao[key]
+
+    # --- drawing --------------------------------------------------------------------------
+    def draw(self, settings: RenderSettings, sample_range: tuple[int, int] = (0, 0),
+             samples_texture: moderngl.Texture | None = None, set_size: int = 1) -> None:
+        """Draw once into the bound framebuffer (additively for sample batches)."""
+        if self.material is None:
+            raise BRDFLabError("no material to render")
+        if settings.mode not in MODES:
+            raise BRDFLabError(f"unknown lighting mode {settings.mode!r} (point or fis)")
+        reference = settings.reference_view or self.mesh is None
+        models = models_of(self.material)
+        prog = self._program(models, settings.mode, reference, self.measured)
+        set_uniforms(prog, self._uniforms)
+        if self.measured:
+            self.table_texture.use(2)
+            _set(prog, "u_table", 2)
+            _set(prog, "u_table_size", tuple(float(x) for x in self.table_size))
+        _set(prog, "u_light_direction", tuple(float(x) for x in settings.light))
+        _set(prog, "u_light_color", tuple(float(x) for x in settings.light_color))
+        if settings.mode == "fis":
+            if self.env_texture is None:
+                raise BRDFLabError("no environment map for the environment lighting mode")
+            self.env_texture.use(0)
+            samples_texture.use(1)
+            _set(prog, "u_env", 0)
+            _set(prog, "u_samples", 1)
+            _set(prog, "u_env_size", tuple(float(x) for x in self.env_size))
+            _set(prog, "u_env_max_lod", float(math.floor(math.log2(max(self.env_size)))))
+            _set(prog, "u_env_rotation", math.radians(settings.env_rotation))
+            _set(prog, "u_sample_begin", sample_range[0])
+            _set(prog, "u_sample_end", sample_range[1])
+            _set(prog, "u_set_size", float(set_size))
+        if reference:
+            self._empty_vao_for(prog).render(moderngl.TRIANGLES, vertices=3)
+        else:
+            aspect = settings.width / settings.height
+            prog["u_view_projection"].write(gl_matrix(self.camera.projection(aspect) @ self.camera.view()))
+            prog["u_model"].write(gl_matrix(np.eye(4)))
+            _set(prog, "u_camera_position", tuple(float(x) for x in self.camera.position))
+            _set(prog, "u_mesh_tangents", not self.material.isotropic)
+            self._vao(prog, (models, settings.mode, self.measured)).render(moderngl.TRIANGLES)
+
+    def _empty_vao_for(self, prog: moderngl.Program) -> moderngl.VertexArray:
+        key = ("empty", id(prog))
+        if key not in self._mesh_vao:
+            self._mesh_vao[key] = self.ctx.vertex_array(prog, [])
+        return self._mesh_vao[key]
+
+    def samples_texture(self, n: int, rotation: np.ndarray | None = None) -> moderngl.Texture:
+        """The sample set as an RGBA32F texture (and with the exact lobe shares applied)."""
+        data, fractions = sample_set(self._shares, n, rotation)
+        self._uniforms = {**self._uniforms, "u_lobe_share": fractions.astype(np.float32)}
+        tex = self.ctx.texture((len(data), 1), 4, data.tobytes(), dtype="f4")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return tex
+
+    def render(self, settings: RenderSettings) -> np.ndarray:
+        """Linear radiance (H, W, 3), row 0 at the top; 0 where nothing is drawn."""
+        w, h = settings.width, settings.height
+        color = self.ctx.texture((w, h), 4, dtype="f4")
+        depth = self.ctx.depth_renderbuffer((w, h))
+        fbo = self.ctx.framebuffer([color], depth)
+        try:
+            fbo.use()
+            self.ctx.viewport = (0, 0, w, h)
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            reference = settings.reference_view or self.mesh is None
+            self.ctx.disable(moderngl.CULL_FACE)
+            if reference:
+                self.ctx.disable(moderngl.DEPTH_TEST)
+            else:
+                self.ctx.enable(moderngl.DEPTH_TEST)
+                self.ctx.depth_func = "<"
+            if settings.mode == "fis":
+                n = max(1, int(settings.samples))
+                tex = self.samples_texture(n)
+                if not reference:
+                    # depth pre-pass: additive batches must only shade the visible surface
+                    fbo.color_mask = (False, False, False, False)
+                    self.draw(settings, (0, 0), tex, n)
+                    fbo.color_mask = (True, True, True, True)
+                    fbo.depth_mask = False
+                    self.ctx.depth_func = "=="
+                self.ctx.enable(moderngl.BLEND)
+                self.ctx.blend_func = moderngl.ONE, moderngl.ONE
+                try:
+                    for begin in range(0, n, BATCH):
+                        self.draw(settings, (begin, min(n, begin + BATCH)), tex, n)
+                finally:
+                    self.ctx.disable(moderngl.BLEND)
+                    fbo.depth_mask = True
+                    tex.release()
+                scale = 1.0 / n
+            else:
+                self.draw(settings)
+                scale = 1.0
+            self.ctx.finish()
+            img = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(h, w, 4)
+        finally:
+            fbo.release()
+            color.release()
+            depth.release()
+        return np.ascontiguousarray(img[::-1, :, :3] * scale)

@@ -1,0 +1,68 @@
+"""Low-discrepancy sample sets shared by every pixel, split across a material's lobes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..albedo import lobe_albedo
+from ..material import AnalyticMaterial
+
+
+def radical_inverse_2(i: np.ndarray) -> np.ndarray:
+    """Van der Corput sequence in base 2 (bit reversal of 32-bit integers)."""
+    i = i.astype(np.uint32)
+    i = ((i << 16) | (i >> 16)) & 0xFFFFFFFF
+    i = ((i & 0x55555555) << 1) | ((i & 0xAAAAAAAA) >> 1)
+    i = ((i & 0x33333333) << 2) | ((i & 0xCCCCCCCC) >> 2)
+    i = ((i & 0x0F0F0F0F) << 4) | ((i & 0xF0F0F0F0) >> 4)
+    i = ((i & 0x00FF00FF) << 8) | ((i & 0xFF00FF00) >> 8)
+    return i.astype(np.float64) / 4294967296.0
+
+
+def hammersley(n: int) -> np.ndarray:
+    i = np.arange(n)
+    return np.stack([(i + 0.5) / n, radical_inverse_2(i)], axis=1)
+
+
+def lobe_shares(material: AnalyticMaterial, floor: float = 0.05) -> np.ndarray:
+    """How many of the samples each lobe gets: its share of the material's luminance
+    albedo at normal incidence (at least `floor` each, so no lobe is starved)."""
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    weights = []
+    for lobe in material.lobes:
+        a = float(lobe_albedo(lobe, np.array([[0.0, 0.0, 1.0]]), samples_log2=8)[0])
+        if material.combination == "Linear":
+            s = np.asarray(lobe.scale[:3] if len(lobe.scale) >= 3 else lobe.scale * 3, float)
+            weights.append(max(a, 0.0) * float(abs(s) @ lum))
+        else:
+            weights.append(max(a, 0.0) * abs(lobe.scale[0]))
+    w = np.asarray(weights)
+    w = w / w.sum() if w.sum() > 0 else np.full(len(w), 1.0 / len(w))
+    w = np.maximum(w, floor)
+    return w / w.sum()
+
+
+def sample_set(shares: np.ndarray, n: int, rotation: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """n samples (u1, u2, lobe, 0), a Hammersley set per lobe, interleaved so that every
+    prefix holds the lobes in proportion; and the exact fraction each lobe received.
+    `rotation` (2,) shifts the points (Cranley–Patterson) for progressive refinement."""
+    n = max(int(n), len(shares))
+    raw = shares * n
+    counts = np.maximum(np.floor(raw).astype(int), 1)
+    while counts.sum() > n:
+        counts[np.argmax(counts)] -= 1
+    while counts.sum() < n:
+        counts[np.argmax(raw - counts)] += 1
+    rows = []
+    for k, c in enumerate(counts):
+        pts = hammersley(int(c))
+        if rotation is not None:
+            pts = np.mod(pts + rotation, 1.0)
+        # position of each point within the whole set, so lobes interleave evenly
+        order = (np.arange(c) + 0.5) / c
+        rows.append(np.column_stack([order, pts, np.full(c, k, float)]))
+    allrows = np.concatenate(rows)
+    allrows = allrows[np.argsort(allrows[:, 0], kind="stable")]
+    out = np.zeros((n, 4), np.float32)
+    out[:, :3] = allrows[:, 1:4]
+    return out, counts / n
