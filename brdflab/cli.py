@@ -208,6 +208,20 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench(args: argparse.Namespace) -> int:
+    from .bench import run
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise BRDFLabError("--out must be a folder", out)
+    result = run(out, quick=args.quick)
+    fis = result["render"]["fis"]
+    lines = [f"{r['material']:<12} {r['samples']:>4} samples {r['ms']:8.1f} ms  {100 * r['relative_rmse']:6.2f} %" for r in fis]
+    _emit(args, {"out": str(out), "files": ["bench.json", *result["charts"]], "render": result["render"]},
+          "\n".join(lines + [f"wrote {out}/bench.json and {', '.join(result['charts'])}"]))
+    return 0
+
+
 def cmd_gui(args: argparse.Namespace) -> int:
     from .gui.app import run
 
@@ -276,6 +290,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("bench", help="speed/accuracy charts (PNG) and numbers (JSON)")
+    p.add_argument("--quick", action="store_true", help="smaller sizes, fewer sample counts")
+    p.add_argument("--out", required=True, help="folder for bench.json and the charts")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_bench)
     return parser
 
 

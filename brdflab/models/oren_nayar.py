@@ -11,6 +11,7 @@ from .registry import register
 class OrenNayar(CosineSampled):
     name = "OrenNayar"
     parameters = (Parameter("sigma", 0.3, 0.0, 1.5, "rad", "standard deviation of facet slope angles"),)
+    starts = tuple({"sigma": s} for s in (0.1, 0.4, 0.8, 1.2))
     summary = "A + B max(0, cos(φi−φo)) sin α tan β; scale it by ρ/π (σ = 0 is Lambertian)."
     reference = "Oren & Nayar 1994; Schwenk 2011 §3.4.2"
 

@@ -27,6 +27,7 @@ class Schwenk(LobeModel):
         Parameter("metalness", 0.0, 0.0, 1.0, "1", "m: white (0) to tinted (1) highlight"),
         Parameter("tint", 1.0, 0.0, 10.0, "1", "C/lum(C) for this lobe's channel"),
     )
+    starts = tuple({"smoothness": s, "metalness": m} for s in (0.2, 0.5, 0.8, 0.95) for m in (0.0, 0.7))
     summary = "s²/(wo·h) F(wo·h, 1−m+m·tint) cos θh^(2/(1.00392−s)) (Schwenk 2011 eqs. 50–52)."
     reference = "Schwenk 2011 §4.2"
     sampling = "half vector from (e+1)/(2π) cos^e θh, reflected"

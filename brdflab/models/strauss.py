@@ -36,6 +36,7 @@ class Strauss(LobeModel):
         Parameter("transparency", 0.0, 0.0, 1.0, "1", "t"),
         Parameter("color", 1.0, 0.0, 1.0, "1", "material colour C of this lobe's channel"),
     )
+    starts = tuple({"smoothness": s, "metalness": m} for s in (0.2, 0.5, 0.8, 0.95) for m in (0.0, 0.7))
     summary = ("rd d C/π + rs Cs / cosθi with rd = (1−s³)(1−t), d = 1−ms, rs = rj cos^(3/(1−s)) α "
                "and Strauss's Fresnel/shadow approximations.")
     reference = "Strauss 1990; Schwenk 2011 §3.9 (diffuse part divided by π so C is an albedo)"

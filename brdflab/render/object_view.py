@@ -44,12 +44,14 @@ def _set(program: moderngl.Program, name: str, value) -> None:
 
 
 def proxy_lobes(table: MeasuredTable) -> AnalyticMaterial:
-    """A Lambertian + Cook–Torrance fit of a measured table (Ngan metric, a stratified
-    subset): the distribution that importance-samples it."""
+    """A Lambertian + two Cook–Torrance fit of a measured table (Ngan metric, a stratified
+    subset): the distribution that importance-samples it (a sharp and a broad lobe, so that
+    glossy tails get samples too)."""
     from ..fit import FitOptions, fit, material_from_lobes
     from ..samples import samples_of
 
-    start = material_from_lobes(["Lambertian", "CookTorrance"], "Linear", 3)
+    start = material_from_lobes(["Lambertian", "CookTorrance", "CookTorrance"], "Linear", 3)
+    start.lobes[1].params["m"], start.lobes[2].params["m"] = 0.05, 0.35
     result = fit(start, samples_of(table, "subset", size=20_000), FitOptions(metric="Ngan", coarse_size=0, max_iterations=60))
     for lobe in result.material.lobes:  # a lobe the fit switched off still deserves samples
         lobe.scale = [max(s, 1e-6) for s in lobe.scale]
@@ -237,6 +239,7 @@ class ObjectRenderer:
                 finally:
                     self.ctx.disable(moderngl.BLEND)
                     fbo.depth_mask = True
+                    self.ctx.depth_func = "<"
                     tex.release()
                 scale = 1.0 / n
             else:

@@ -1,0 +1,139 @@
+"""`brdflab bench`: what each speed costs in accuracy, as numbers (JSON) and charts (PNG).
+
+Renders run on whatever OpenGL the machine has (llvmpipe here); errors are relative RMSE
+against NumPy quadrature over the environment map's texels in the reference view.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .envmap import load_environment
+from .material import AnalyticMaterial, Lobe
+from .models import all_models
+from .reference_view import environment_image, relative_rmse, sphere_view
+from .resources import data_dir
+
+BENCH_MATERIALS = {
+    "diffuse": lambda: AnalyticMaterial("diffuse", "Linear", 3, [Lobe.create("Lambertian", [0.25, 0.2, 0.15])]),
+    "glossy": lambda: AnalyticMaterial("glossy", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
+                                                               Lobe.create("BlinnPhong", [0.3] * 3, Exponent=60.0)]),
+    "anisotropic": lambda: AnalyticMaterial("anisotropic", "Linear", 3, [Lobe.create("Lambertian", [0.03] * 3),
+                                                                         Lobe.create("Ward", [0.6] * 3, ax=0.08, ay=0.3)]),
+}
+
+
+def _timed(fn, repeat: int) -> float:
+    fn()  # warm-up (program compilation)
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def model_throughput(pairs: int) -> list[dict]:
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(2, pairs, 3))
+    v[..., 2] = np.abs(v[..., 2])
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    rows = []
+    for m in all_models():
+        s = _timed(lambda: m.evaluate(v[0], v[1]), 3)
+        rows.append({"model": m.name, "mpairs_per_s": pairs / s / 1e6})
+    return rows
+
+
+def render_numbers(quick: bool) -> dict:
+    from .render.context import create_context
+    from .render.lobe_view import LobeViewer
+    from .render.object_view import ObjectRenderer, RenderSettings
+
+    ctx = create_context()
+    renderer = ObjectRenderer(ctx)
+    env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr")
+    small = env.downsampled(128, 64)
+    size = 256 if quick else 512
+    err_size = 48 if quick else 96
+    counts = (16, 64) if quick else (16, 64, 256)
+    out = {"renderer": ctx.info.get("GL_RENDERER", ""), "size": size, "error_size": err_size, "point": [], "fis": []}
+    inside = sphere_view(err_size, err_size).inside
+    for name, make in BENCH_MATERIALS.items():
+        material = make()
+        renderer.set_material(material)
+        ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("point", size, size)), 3)
+        out["point"].append({"material": name, "ms": ms})
+        reference = environment_image(material, small, err_size, err_size)
+        for n in counts:
+            renderer.set_environment(env)
+            ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("fis", size, size, samples=n)), 1 if n > 64 else 2)
+            renderer.set_environment(small)
+            err = relative_rmse(renderer.render(RenderSettings("fis", err_size, err_size, samples=n)), reference, inside)
+            out["fis"].append({"material": name, "samples": n, "ms": ms, "relative_rmse": err})
+    viewer = LobeViewer(ctx)
+    viewer.set_original(BENCH_MATERIALS["glossy"]())
+    out["lobe_viewer"] = []
+    for level in (4, 5, 6, 7):
+        viewer.settings.level = level
+        ms = 1e3 * _timed(lambda: viewer.render(size, size), 3)
+        out["lobe_viewer"].append({"level": level, "triangles": viewer.triangle_count(), "ms": ms})
+    return out
+
+
+def charts(result: dict, out_dir: Path) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = []
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
+    for name in BENCH_MATERIALS:
+        rows = [r for r in result["render"]["fis"] if r["material"] == name]
+        ax.loglog([r["ms"] for r in rows], [100 * r["relative_rmse"] for r in rows], "o-", label=name)
+        for r in rows:
+            ax.annotate(f"{r['samples']}", (r["ms"], 100 * r["relative_rmse"]), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    for extra in result.get("extra_series", []):
+        ax.loglog(extra["ms"], extra["error_percent"], "s--", label=extra["label"])
+    ax.axhline(2.0, color="grey", lw=0.8, ls=":")
+    ax.set_xlabel(f"milliseconds per frame at {result['render']['size']}² ({result['render']['renderer'].split(' (')[0]})")
+    ax.set_ylabel("relative RMSE vs quadrature (%)")
+    ax.set_title("Environment lighting: speed against accuracy (labels: samples)")
+    ax.legend()
+    fig.tight_layout()
+    path = out_dir / "render_speed_accuracy.png"
+    fig.savefig(path)
+    plt.close(fig)
+    files.append(path.name)
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
+    rows = sorted(result["models"], key=lambda r: r["mpairs_per_s"])
+    ax.barh([r["model"] for r in rows], [r["mpairs_per_s"] for r in rows], color="#4a7bb7")
+    ax.set_xscale("log")
+    ax.set_xlabel("million direction pairs per second (NumPy, one core)")
+    ax.set_title("What each lobe model costs")
+    fig.tight_layout()
+    path = out_dir / "model_throughput.png"
+    fig.savefig(path)
+    plt.close(fig)
+    files.append(path.name)
+    return files
+
+
+def run(out_dir: Path, quick: bool = False) -> dict:
+    from .xmlio import atomic_write
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine()},
+              "quick": quick,
+              "models": model_throughput(100_000 if quick else 1_000_000),
+              "render": render_numbers(quick)}
+    result["charts"] = charts(result, out_dir)
+    atomic_write(out_dir / "bench.json", json.dumps(result, indent=2).encode())
+    return result

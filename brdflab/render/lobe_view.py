@@ -1,0 +1,241 @@
+"""The lobe viewer (BRDFLab §5): f(wi, ·) as a 3-D lobe over a geodesic hemisphere.
+
+Analytic materials are displaced in the vertex shader from their GLSL; any other source
+(measured tables, raw samples) through a (θo, φo) texture recomputed when wi changes.
+The original and a fitted material can be drawn together in distinct colours.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from ..geodesic import geodesic_hemisphere
+from ..material import AnalyticMaterial
+from ..vec import spherical_to_cartesian
+from .camera import OrbitCamera, gl_matrix
+from .glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
+
+TRANSFERS = {"linear": 0, "cbrt": 1, "log": 2}
+CHANNELS = {"red": 0, "green": 1, "blue": 2, "luminance": 3}
+TEXTURE_GRID = (360, 90)  # φo × θo samples of non-analytic sources
+
+
+@dataclass
+class LobeSettings:
+    theta_i: float = 30.0  # degrees
+    phi_i: float = 0.0
+    transfer: str = "cbrt"
+    cosine: bool = False
+    channel: str = "luminance"
+    level: int = 5
+    translucent_fit: bool = True
+    original_color: tuple = (0.85, 0.55, 0.25)
+    fitted_color: tuple = (0.25, 0.55, 0.95)
+
+    @property
+    def wi(self) -> np.ndarray:
+        return spherical_to_cartesian(math.radians(self.theta_i), math.radians(self.phi_i))
+
+
+@dataclass
+class _Layer:
+    source: object
+    program: moderngl.Program
+    texture: moderngl.Texture | None = None
+    texture_wi: tuple | None = None
+    vaos: dict = field(default_factory=dict)
+
+
+class LobeViewer:
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self.settings = LobeSettings()
+        self.camera = OrbitCamera(yaw=35.0, pitch=25.0, distance=3.0)
+        self._programs: dict[tuple, moderngl.Program] = {}
+        self._layers: list[_Layer | None] = [None, None]
+        self._mesh_level = None
+        self._vbo = self._ibo = None
+        self._lines = self.ctx.program(vertex_shader=GLSL_VERSION + "#define VERTEX\n" + shader_source("lines.glsl"),
+                                       fragment_shader=GLSL_VERSION + shader_source("lines.glsl"))
+        self._line_vbo = self.ctx.buffer(reserve=12 * 6 * 4)
+        self._line_vao = self.ctx.vertex_array(self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_color")])
+
+    # --- sources --------------------------------------------------------------------------
+    def set_original(self, source) -> None:
+        self._set_layer(0, source)
+
+    def set_fitted(self, source) -> None:
+        self._set_layer(1, source)
+
+    def _set_layer(self, index: int, source) -> None:
+        old = self._layers[index]
+        if old is not None:
+            for vao in old.vaos.values():
+                vao.release()
+            if old.texture is not None:
+                old.texture.release()
+        if source is None:
+            self._layers[index] = None
+            return
+        analytic = isinstance(source, AnalyticMaterial)
+        models = models_of(source) if analytic else ("Lambertian",)
+        self._layers[index] = _Layer(source, self._program(models, not analytic))
+        if analytic:
+            set_uniforms(self._layers[index].program, lobe_uniforms(source))
+
+    def update_material(self, index: int, material: AnalyticMaterial) -> None:
+        """New parameters for a layer with the same lobe models: uniforms only, no rebuild."""
+        layer = self._layers[index]
+        if layer is None or not isinstance(layer.source, AnalyticMaterial) or models_of(layer.source) != models_of(material):
+            self._set_layer(index, material)
+            return
+        layer.source = material
+        set_uniforms(layer.program, lobe_uniforms(material))
+
+    def _program(self, models: tuple[str, ...], textured: bool) -> moderngl.Program:
+        key = (models, textured)
+        if key not in self._programs:
+            head = GLSL_VERSION + ("#define SOURCE_TEXTURE\n" if textured else "")
+            self._programs[key] = self.ctx.program(
+                vertex_shader=head + material_source(models) + shader_source("lobe_vertex.glsl"),
+                geometry_shader=GLSL_VERSION + shader_source("lobe_geometry.glsl"),
+                fragment_shader=GLSL_VERSION + shader_source("lobe_fragment.glsl"))
+        return self._programs[key]
+
+    def _refresh_texture(self, layer: _Layer) -> None:
+        wi = tuple(np.round(self.settings.wi, 9))
+        if layer.texture is not None and layer.texture_wi == wi:
+            return
+        n_phi, n_theta = TEXTURE_GRID
+        theta = (np.arange(n_theta) + 0.5) / n_theta * 0.5 * np.pi
+        phi = (np.arange(n_phi) + 0.5) / n_phi * 2.0 * np.pi
+        wo = spherical_to_cartesian(theta[:, None], phi[None, :]).reshape(-1, 3)
+        values = layer.source.evaluate(np.broadcast_to(np.asarray(wi, float), wo.shape), wo)[:, :3]
+        if values.shape[1] == 1:
+            values = np.repeat(values, 3, axis=1)
+        data = np.ascontiguousarray(values.reshape(n_theta, n_phi, 3), np.float32)
+        if layer.texture is None:
+            layer.texture = self.ctx.texture((n_phi, n_theta), 3, dtype="f4")
+            layer.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            layer.texture.repeat_x, layer.texture.repeat_y = True, False
+        layer.texture.write(data.tobytes())
+        layer.texture_wi = wi
+
+    # --- drawing --------------------------------------------------------------------------
+    def _mesh(self) -> tuple[moderngl.Buffer, moderngl.Buffer]:
+        if self._mesh_level != self.settings.level:
+            for layer in self._layers:
+                if layer is not None:
+                    for vao in layer.vaos.values():
+                        vao.release()
+                    layer.vaos.clear()
+            for b in (self._vbo, self._ibo):
+                if b is not None:
+                    b.release()
+            v, f = geodesic_hemisphere(self.settings.level)
+            self._vbo, self._ibo = self.ctx.buffer(v.tobytes()), self.ctx.buffer(f.tobytes())
+            self._mesh_level = self.settings.level
+        return self._vbo, self._ibo
+
+    def triangle_count(self) -> int:
+        return len(geodesic_hemisphere(self.settings.level)[1])
+
+    def draw(self, width: int, height: int) -> None:
+        """Draw into the bound framebuffer (depth test on, caller clears)."""
+        s = self.settings
+        vp = self.view_projection(width, height)
+        vbo, ibo = self._mesh()
+        self.ctx.enable(moderngl.DEPTH_TEST)  # the context may be shared: set every state we rely on
+        self.ctx.depth_func = "<"
+        self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+        self._draw_lines(vp)
+        for index, layer in enumerate(self._layers):
+            if layer is None:
+                continue
+            prog = layer.program
+            if "u_values" in prog:
+                self._refresh_texture(layer)
+                layer.texture.use(0)
+                prog["u_values"].value = 0
+            values = {"u_wi": tuple(float(x) for x in s.wi), "u_transfer": TRANSFERS[s.transfer],
+                      "u_cosine": bool(s.cosine), "u_channel": CHANNELS[s.channel], "u_gain": self.gain(),
+                      "u_eye": tuple(float(x) for x in self._eye())}
+            for name, value in values.items():
+                if name in prog:
+                    prog[name].value = value
+            prog["u_view_projection"].write(gl_matrix(vp))
+            color = s.original_color if index == 0 else s.fitted_color
+            alpha = 0.55 if index == 1 and s.translucent_fit else 1.0
+            prog["u_color"].value = (*color, alpha)
+            if index not in layer.vaos:
+                layer.vaos[index] = self.ctx.vertex_array(prog, [(vbo, "3f", "in_direction")], index_buffer=ibo,
+                                                          index_element_size=4)
+            if alpha < 1.0:
+                self.ctx.enable(moderngl.BLEND)
+                self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+            layer.vaos[index].render(moderngl.TRIANGLES)
+            self.ctx.disable(moderngl.BLEND)
+
+    def gain(self) -> float:
+        """Scale that makes the largest lobe reach radius 1 (same transfer as the shader)."""
+        s = self.settings
+        dirs = geodesic_hemisphere(min(s.level, 5))[0].astype(float)
+        wi = np.broadcast_to(s.wi, dirs.shape)
+        peak = 0.0
+        for layer in self._layers:
+            if layer is None:
+                continue
+            f = np.asarray(layer.source.evaluate(wi, dirs), float)[:, :3]
+            if f.shape[1] == 1:
+                f = np.repeat(f, 3, axis=1)
+            v = f @ np.array([0.2126, 0.7152, 0.0722]) if s.channel == "luminance" else f[:, CHANNELS[s.channel]]
+            v = np.maximum(v, 0.0) * (np.maximum(dirs[:, 2], 0.0) if s.cosine else 1.0)
+            r = {"linear": v, "cbrt": np.cbrt(v), "log": np.log1p(v)}[s.transfer]
+            peak = max(peak, float(np.nanmax(r)) if r.size else 0.0)
+        return 1.0 / peak if peak > 0 else 1.0
+
+    def _eye(self) -> np.ndarray:
+        """The camera position in the lobe's frame (z up on screen)."""
+        return _Z_UP[:3, :3].T @ self.camera.position
+
+    def _draw_lines(self, vp: np.ndarray) -> None:
+        wi = self.settings.wi
+        axis = 1.2
+        lines = np.array([
+            [0, 0, 0, 0.9, 0.2, 0.2], [axis, 0, 0, 0.9, 0.2, 0.2],
+            [0, 0, 0, 0.2, 0.8, 0.2], [0, axis, 0, 0.2, 0.8, 0.2],
+            [0, 0, 0, 0.3, 0.4, 1.0], [0, 0, axis, 0.3, 0.4, 1.0],
+            [0, 0, 0, 1.0, 1.0, 0.2], [*(1.5 * wi), 1.0, 1.0, 0.2],
+        ], np.float32)
+        self._line_vbo.orphan(lines.nbytes)
+        self._line_vbo.write(lines.tobytes())
+        self._lines["u_view_projection"].write(gl_matrix(vp))
+        self._line_vao.render(moderngl.LINES, vertices=len(lines))
+
+    def view_projection(self, width: int, height: int) -> np.ndarray:
+        return self.camera.projection(width / max(height, 1)) @ self.camera.view() @ _Z_UP
+
+    def render(self, width: int, height: int, background=(0.12, 0.12, 0.14)) -> np.ndarray:
+        """Offscreen: an (H, W, 3) uint8 image, row 0 at the top."""
+        color = self.ctx.renderbuffer((width, height), 4, samples=0)
+        depth = self.ctx.depth_renderbuffer((width, height))
+        fbo = self.ctx.framebuffer([color], depth)
+        try:
+            fbo.use()
+            self.ctx.viewport = (0, 0, width, height)
+            fbo.clear(*background, 1.0, depth=1.0)
+            self.draw(width, height)
+            img = np.frombuffer(fbo.read(components=3), np.uint8).reshape(height, width, 3)[::-1]
+        finally:
+            fbo.release()
+            color.release()
+            depth.release()
+        return np.ascontiguousarray(img)
+
+
+# The lobe's frame has z = normal; on screen the normal points up (+Y): rotate z → y.
+_Z_UP = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1]], float)

@@ -1,0 +1,97 @@
+"""The lobe viewer draws what the material says, for analytic and measured sources."""
+
+import numpy as np
+import pytest
+
+from brdflab.geodesic import geodesic_hemisphere
+from brdflab.material import AnalyticMaterial, Lobe
+from brdflab.measured import tabulate
+from brdflab.render.lobe_view import LobeViewer
+
+
+@pytest.fixture(scope="module")
+def viewer():
+    from brdflab.render.context import create_context
+
+    return LobeViewer(create_context())
+
+
+def glossy(n):
+    return AnalyticMaterial("g", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3), Lobe.create("Phong", [0.5] * 3, Exponent=n)])
+
+
+def coloured(img, color, tol=60):
+    return (np.abs(img.astype(int) - np.array(color) * 255 * 0.6).max(axis=2) < tol).sum()
+
+
+def test_geodesic_hemisphere():
+    for level in range(6):
+        v, f = geodesic_hemisphere(level)
+        assert np.all(v[:, 2] >= 0) and np.allclose(np.linalg.norm(v, axis=1), 1, atol=1e-6)
+        assert f.max() < len(v)
+    assert len(geodesic_hemisphere(7)[1]) > 160_000  # BRDFLab drew 328,192 triangles over a sphere
+    with pytest.raises(ValueError):
+        geodesic_hemisphere(9)
+
+
+def test_parameter_change_changes_the_lobe(viewer):
+    viewer.set_fitted(None)
+    viewer.set_original(glossy(10.0))
+    broad = viewer.render(160, 160)
+    viewer.update_material(0, glossy(200.0))
+    sharp = viewer.render(160, 160)
+    assert (broad != sharp).any()
+    background = np.array([0.12, 0.12, 0.14]) * 255
+    lobe_pixels = lambda img: (np.abs(img - background).max(axis=2) > 10).sum()
+    assert lobe_pixels(broad) > 500 and lobe_pixels(sharp) > 100
+
+
+def test_incident_direction_moves_the_lobe(viewer):
+    viewer.set_original(glossy(50.0))
+    viewer.settings.theta_i = 10.0
+    a = viewer.render(160, 160)
+    viewer.settings.theta_i = 60.0
+    b = viewer.render(160, 160)
+    assert np.abs(a.astype(int) - b).sum() > 1000
+
+
+def test_original_and_fitted_overlay(viewer):
+    material = glossy(30.0)
+    viewer.set_original(tabulate(material))  # measured path: (θo, φo) texture
+    viewer.set_fitted(material)
+    viewer.settings.translucent_fit = False
+    img = viewer.render(200, 200)
+    viewer.set_fitted(None)
+    only = viewer.render(200, 200)
+    assert (img != only).any()
+    viewer.settings.translucent_fit = True
+
+
+def test_transfer_functions_and_channels(viewer):
+    viewer.set_original(glossy(30.0))
+    images = []
+    for transfer in ("linear", "cbrt", "log"):
+        viewer.settings.transfer = transfer
+        images.append(viewer.render(120, 120))
+    assert (images[0] != images[1]).any() and (images[1] != images[2]).any()
+    viewer.settings.channel = "red"
+    viewer.settings.cosine = True
+    assert viewer.render(120, 120).any()
+    viewer.settings.channel, viewer.settings.cosine, viewer.settings.transfer = "luminance", False, "cbrt"
+
+
+def test_sharing_a_context_with_the_object_view(viewer):
+    """The object view's depth pre-pass must not leave state that hides the lobes."""
+    from brdflab.envmap import constant
+    from brdflab.mesh import uv_sphere
+    from brdflab.render.object_view import ObjectRenderer, RenderSettings
+
+    objects = ObjectRenderer(viewer.ctx)
+    objects.set_material(glossy(20.0))
+    objects.set_environment(constant(1.0, 16, 8))
+    objects.set_mesh(uv_sphere(8, 16))
+    objects.render(RenderSettings("fis", 32, 32, samples=8, reference_view=False))
+    viewer.set_original(glossy(20.0))
+    img = viewer.render(120, 120)
+    background = np.array([0.12, 0.12, 0.14]) * 255
+    assert (np.abs(img - background).max(axis=2) > 10).sum() > 200
