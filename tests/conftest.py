@@ -29,3 +29,11 @@ def needs_shared(*parts):
     """Skip cleanly on a machine without ../shared (a user's machine)."""
     path = DATA.joinpath(*parts)
     return pytest.mark.skipif(not path.exists(), reason=f"{path} is not available")
+
+
+def pytest_configure(config):
+    try:
+        from brdflab.gui.gl_views import set_default_surface_format
+    except ImportError:
+        return
+    set_default_surface_format()  # must precede the QApplication that pytest-qt creates

@@ -1,106 +1,549 @@
-"""The main window: the current material document, its lobes and its XML."""
+"""The main window: one Workspace, shown by dock panels and two OpenGL views."""
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
-from PySide6.QtCore import Qt
-from PySide6.QtGui import QAction, QFont, QKeySequence
-from PySide6.QtWidgets import (
-    QDockWidget,
-    QFileDialog,
-    QMainWindow,
-    QMessageBox,
-    QPlainTextEdit,
-    QTreeWidget,
-    QTreeWidgetItem,
-)
+from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
+from PySide6.QtGui import QAction, QKeySequence, QUndoCommand, QUndoStack
+from PySide6.QtWidgets import QDockWidget, QFileDialog, QMainWindow, QMessageBox
 
-from .. import xmlio
+from .. import workspace as ws_ops
+from ..envmap import load_environment
 from ..errors import BRDFLabError
+from ..fit import FitOptions, FitProgress, FitResult, fit, material_from_lobes
+from ..fitting_io import append_fitting
+from ..mesh import default_mesh, load_mesh
 from ..resources import data_dir
+from ..samples import samples_of
+from ..workspace import OPEN_FILTER, Workspace
+from ..xmlio import to_bytes
+from .gl_views import LobeView, ObjectView
+from .panels import FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView
 
-DEFAULT_MATERIAL = "fig2_lambertian_lafortune.xml"
+DEFAULT_MESH = "meshes/spot.obj"
+DEFAULT_ENV = "envmaps/venice_sunset_1k.hdr"
+MAX_RECENT = 8
+
+
+class ReplaceMaterial(QUndoCommand):
+    """Every material edit swaps whole materials, so undo is exact."""
+
+    def __init__(self, window: "MainWindow", old, new, text: str, merge_key=None) -> None:
+        super().__init__(text)
+        self.window, self.old, self.new, self.merge_key = window, old, new, merge_key
+
+    def id(self) -> int:
+        return 1 if self.merge_key is not None else -1
+
+    def mergeWith(self, other) -> bool:  # dragging a slider is one undo step
+        if isinstance(other, ReplaceMaterial) and other.merge_key == self.merge_key:
+            self.new = other.new
+            return True
+        return False
+
+    def redo(self) -> None:
+        self.window.workspace.replace_material(self.new)
+        self.window.material_changed()
+
+    def undo(self) -> None:
+        self.window.workspace.replace_material(self.old)
+        self.window.material_changed()
+
+
+class ReplaceFittings(QUndoCommand):
+    def __init__(self, window: "MainWindow", old: tuple, new: tuple, text: str) -> None:
+        super().__init__(text)
+        self.window, self.old, self.new = window, old, new
+
+    def redo(self) -> None:
+        self.window.workspace.replace_fittings(list(self.new[0]), self.new[1])
+        self.window.fittings_changed()
+
+    def undo(self) -> None:
+        self.window.workspace.replace_fittings(list(self.old[0]), self.old[1])
+        self.window.fittings_changed()
+
+
+class FitWorker(QObject):
+    """Runs one fit off the GUI thread; progress and the result come back as signals."""
+
+    progress = Signal(object)
+    finished = Signal(object)
+    failed = Signal(str)
+
+    def __init__(self, start, samples, options: FitOptions) -> None:
+        super().__init__()
+        self.start, self.samples, self.options = start, samples, options
+        self.cancel = threading.Event()
+
+    @Slot()
+    def run(self) -> None:
+        try:
+            result = fit(self.start, self.samples, self.options, progress=self.progress.emit, cancel=self.cancel)
+        except BRDFLabError as e:
+            self.failed.emit(str(e))
+        except Exception as e:  # a bug in a worker must not take the window down
+            self.failed.emit(f"the fit failed: {type(e).__name__}: {e}")
+        else:
+            self.finished.emit(result)
 
 
 class MainWindow(QMainWindow):
-    """Shows one BRDFDocument; the document (core) holds all state, the widgets show it."""
-
-    def __init__(self) -> None:
+    def __init__(self, settings: QSettings | None = None) -> None:
         super().__init__()
-        self.resize(1200, 800)
-        self.document: xmlio.BRDFDocument | None = None
+        self.settings = settings or QSettings()
+        self.resize(1500, 950)
+        self.setAcceptDrops(True)
+        self.undo_stack = QUndoStack(self)
+        self.undo_stack.cleanChanged.connect(self._clean_changed)
+        self.workspace = Workspace.new()
+        self._thread: QThread | None = None
+        self._worker: FitWorker | None = None
+        self._candidate = None
 
-        self.xml_view = QPlainTextEdit(readOnly=True)
-        self.xml_view.setFont(QFont("monospace"))
-        self.setCentralWidget(self.xml_view)
+        self.lobe_view = LobeView()
+        self.object_view = ObjectView()
+        self.editor = MaterialEditor()
+        self.lobe_controls = LobeControls()
+        self.object_controls = ObjectControls()
+        self.fitting = FittingPanel()
+        self.plots = PlotsPanel()
+        self.xml = XmlView()
+        self.setCentralWidget(self.object_view)
+        self._docks = {}
+        for name, widget, area in (
+            ("Material", self.editor, Qt.LeftDockWidgetArea),
+            ("Lobe viewer", self.lobe_view, Qt.RightDockWidgetArea),
+            ("Lobe options", self.lobe_controls, Qt.RightDockWidgetArea),
+            ("Object view options", self.object_controls, Qt.LeftDockWidgetArea),
+            ("Fitting", self.fitting, Qt.RightDockWidgetArea),
+            ("Plots", self.plots, Qt.BottomDockWidgetArea),
+            ("XML", self.xml, Qt.BottomDockWidgetArea),
+        ):
+            dock = QDockWidget(name, self)
+            dock.setObjectName(name)
+            dock.setWidget(widget)
+            self.addDockWidget(area, dock)
+            self._docks[name] = dock
+        self.tabifyDockWidget(self._docks["Plots"], self._docks["XML"])
+        self._docks["Plots"].raise_()
 
-        self.lobe_tree = QTreeWidget()
-        self.lobe_tree.setHeaderLabels(["Lobe / parameter", "Value"])
-        dock = QDockWidget("Material", self)
-        dock.setObjectName("material-dock")
-        dock.setWidget(self.lobe_tree)
-        self.addDockWidget(Qt.LeftDockWidgetArea, dock)
-
+        self._plot_timer = QTimer(self, singleShot=True, interval=250)
+        self._plot_timer.timeout.connect(self._refresh_plots)
         self._build_menus()
-        self.open_path(data_dir("materials") / DEFAULT_MATERIAL)
+        self._connect()
+        self.lobe_view.when_ready(lambda: None)
+        self.object_view.when_ready(self._default_scene)
+        geometry = self.settings.value("geometry")
+        if geometry is not None:
+            self.restoreGeometry(geometry)
+            self.restoreState(self.settings.value("state"))
+        self._object_settings_changed()
+        self.set_workspace(self.workspace)
 
+    # --- set-up ------------------------------------------------------------------------------
     def _build_menus(self) -> None:
-        menu = self.menuBar().addMenu("&File")
+        file = self.menuBar().addMenu("&File")
+        self.recent_menu = None
         for text, shortcut, slot in (
+            ("&New analytic material", QKeySequence.New, self.new_material),
             ("&Open…", QKeySequence.Open, self.open_dialog),
-            ("Save &As…", QKeySequence.SaveAs, self.save_as_dialog),
-            ("&Quit", QKeySequence.Quit, self.close),
+            ("Open &mesh…", "Ctrl+M", self.open_mesh_dialog),
+            ("Open &environment…", "Ctrl+E", self.open_environment_dialog),
+            ("&Save", QKeySequence.Save, self.save),
+            ("Save &As…", QKeySequence.SaveAs, self.save_as),
         ):
             action = QAction(text, self)
             action.setShortcut(shortcut)
             action.triggered.connect(slot)
-            menu.addAction(action)
+            file.addAction(action)
+        self.recent_menu = file.addMenu("Recent files")
+        file.addSeparator()
+        quit_action = QAction("&Quit", self)
+        quit_action.setShortcut(QKeySequence.Quit)
+        quit_action.triggered.connect(self.close)
+        file.addAction(quit_action)
+        edit = self.menuBar().addMenu("&Edit")
+        undo = self.undo_stack.createUndoAction(self, "&Undo")
+        undo.setShortcut(QKeySequence.Undo)
+        redo = self.undo_stack.createRedoAction(self, "&Redo")
+        redo.setShortcut(QKeySequence.Redo)
+        edit.addAction(undo)
+        edit.addAction(redo)
+        fit_menu = self.menuBar().addMenu("F&it")
+        run = QAction("&Fit", self)
+        run.setShortcut("Ctrl+F")
+        run.triggered.connect(self.fitting._request)
+        stop = QAction("&Stop", self)
+        stop.setShortcut("Esc")
+        stop.triggered.connect(self.stop_fit)
+        fit_menu.addAction(run)
+        fit_menu.addAction(stop)
+        view = self.menuBar().addMenu("&View")
+        for dock in self._docks.values():
+            view.addAction(dock.toggleViewAction())
+        self._update_recent()
 
-    # --- documents ------------------------------------------------------------------
+    def _connect(self) -> None:
+        e = self.editor
+        e.parameter_edited.connect(lambda k, n, v: self._edit(ws_ops.with_parameter(self.workspace.analytic, k, n, v),
+                                                              f"Set {n}", (k, n)))
+        e.scale_edited.connect(lambda k, c, v: self._edit(ws_ops.with_scale(self.workspace.analytic, k, c, v),
+                                                          "Set scale", (k, "scale", c)))
+        e.lobe_added.connect(lambda m: self._edit(ws_ops.with_lobe_added(self.workspace.analytic, m), f"Add {m} lobe"))
+        e.lobe_removed.connect(lambda k: self._edit(ws_ops.with_lobe_removed(self.workspace.analytic, k), "Remove lobe"))
+        e.lobe_moved.connect(lambda k, d: self._edit(ws_ops.with_lobe_moved(self.workspace.analytic, k, d), "Move lobe"))
+        e.combination_changed.connect(lambda c: self._edit(ws_ops.with_combination(self.workspace.analytic, c), f"{c} combination"))
+        e.channels_changed.connect(lambda n: self._edit(ws_ops.with_channels(self.workspace.analytic, n), "Channels"))
+        self.lobe_controls.changed.connect(self._lobe_settings_changed)
+        self.lobe_view.incident_changed.connect(self._drag_incident)
+        self.object_controls.changed.connect(self._object_settings_changed)
+        self.object_controls.open_mesh.connect(self.open_mesh_dialog)
+        self.object_controls.open_environment.connect(self.open_environment_dialog)
+        for view in (self.lobe_view, self.object_view):
+            view.failed.connect(self.show_error)
+        f = self.fitting
+        f.fit_requested.connect(self.start_fit)
+        f.stop_requested.connect(self.stop_fit)
+        f.fit_selected.connect(self._select_fit)
+        f.refit_requested.connect(self._refit)
+        f.promote_requested.connect(self._promote)
+
+    def _default_scene(self) -> None:
+        try:
+            self.object_view.renderer.set_mesh(default_mesh(DEFAULT_MESH))
+            self.object_view.renderer.set_environment(load_environment(data_dir("resources") / DEFAULT_ENV))
+        except BRDFLabError as e:
+            self.show_error(str(e))
+        self._push_object_source()
+
+    # --- workspace ------------------------------------------------------------------------------
+    def set_workspace(self, workspace: Workspace) -> None:
+        self.workspace = workspace
+        self.undo_stack.clear()
+        self.material_changed()
+        self.fittings_changed()
+        for message in workspace.messages:
+            self.statusBar().showMessage(message, 10000)
+
+    def material_changed(self) -> None:
+        ws = self.workspace
+        self.editor.show_material(ws.analytic)
+        self._push_lobe_sources()
+        self._push_object_source()
+        self._refresh_text()
+
+    def fittings_changed(self) -> None:
+        ws = self.workspace
+        self.fitting.show_fits(ws.document.fittings, ws.shown_fit)
+        self._push_lobe_sources()
+        self._push_object_source()
+        self._refresh_text()
+
+    def _refresh_text(self) -> None:
+        self.xml.setPlainText(to_bytes(self.workspace.document).decode())
+        self._update_title()
+        self._plot_timer.start()
+
+    def _refresh_plots(self) -> None:
+        try:
+            self.plots.show_sources(self.workspace.original(), self._candidate or self.workspace.fitted(),
+                                    self.lobe_view.viewer.settings.theta_i if self.lobe_view.ctx else 30.0)
+        except BRDFLabError as e:
+            self.show_error(str(e))
+
+    @Slot(bool)
+    def _clean_changed(self, clean: bool) -> None:
+        self._update_title()
+
+    def _update_title(self) -> None:
+        self.workspace.dirty = self.workspace.dirty and not (self.undo_stack.isClean() and self.undo_stack.count())
+        self.setWindowTitle(f"{self.workspace.title} — BRDFLab")
+
+    def _edit(self, new_material, text: str, merge_key=None) -> None:
+        if self.workspace.analytic is None:
+            return
+        try:
+            new_material.validate()
+        except BRDFLabError as e:
+            self.show_error(str(e))
+            return
+        self.undo_stack.push(ReplaceMaterial(self, self.workspace.analytic, new_material, text, merge_key))
+
+    def _push_lobe_sources(self) -> None:
+        original, fitted = self.workspace.original(), self._candidate or self.workspace.fitted()
+
+        def apply():
+            v = self.lobe_view.viewer
+            if original is not None and isinstance(original, ws_ops.AnalyticMaterial):
+                v.update_material(0, original)
+            else:
+                v.set_original(original)
+            if fitted is not None:
+                v.update_material(1, fitted)
+            else:
+                v.set_fitted(None)
+
+        self.lobe_view.when_ready(apply)
+
+    def _push_object_source(self) -> None:
+        shown = self.workspace.original()
+        if self.object_controls.show.currentText() == "fitted":
+            shown = self._candidate or self.workspace.fitted() or shown
+        if shown is None or self.object_view.ctx is None:
+            return
+
+        def apply():
+            try:
+                self.object_view.renderer.set_source(shown)
+            except BRDFLabError as e:
+                self.show_error(str(e))
+
+        self.object_view.when_ready(apply)
+        self.object_view.restart()
+
+    def _lobe_settings_changed(self) -> None:
+        self.lobe_controls.apply(self.lobe_view.viewer.settings)
+        self.lobe_view.update()
+        self._plot_timer.start()
+
+    def _drag_incident(self, theta: float, phi: float) -> None:
+        self.lobe_controls.theta.set_value(theta)
+        self.lobe_controls.phi.set_value(phi)
+        self._lobe_settings_changed()
+
+    def _object_settings_changed(self) -> None:
+        c, v = self.object_controls, self.object_view
+        s = v.settings
+        s.mode = c.mode.currentText()
+        s.samples = c.samples.value()
+        s.env_rotation = c.rotation.spin.value()
+        s.light = c.light()
+        v.exposure = c.exposure.spin.value()
+        v.reinhard = c.reinhard.isChecked()
+        self._push_object_source()
+
+    # --- files ------------------------------------------------------------------------------------
+    def maybe_save(self) -> bool:
+        """True when it is fine to discard the current document."""
+        if not self.workspace.dirty:
+            return True
+        answer = QMessageBox.question(self, "BRDFLab", f"Save changes to {self.workspace.title.rstrip(' *')}?",
+                                      QMessageBox.Save | QMessageBox.Discard | QMessageBox.Cancel)
+        if answer == QMessageBox.Save:
+            return self.save()
+        return answer == QMessageBox.Discard
+
+    def new_material(self) -> None:
+        if self.maybe_save():
+            self.set_workspace(Workspace.new())
+
     def open_path(self, path: Path) -> bool:
         try:
-            doc = xmlio.load(path)
+            workspace = Workspace.open(Path(path))
         except BRDFLabError as e:
             self.show_error(str(e))
             return False
-        self.document = doc
-        self.refresh()
-        for w in doc.warnings:
-            self.statusBar().showMessage(f"{path.name}: {w}", 10000)
+        self._remember(Path(path))
+        self.set_workspace(workspace)
+        self.statusBar().showMessage(f"opened {path}", 5000)
         return True
 
     def open_dialog(self) -> None:
-        name, _ = QFileDialog.getOpenFileName(self, "Open material", "", "BRDF materials (*.xml)")
+        if not self.maybe_save():
+            return
+        name, _ = QFileDialog.getOpenFileName(self, "Open", self._folder("open"), OPEN_FILTER)
         if name:
+            self.settings.setValue("folders/open", str(Path(name).parent))
             self.open_path(Path(name))
 
-    def save_as_dialog(self) -> None:
-        if self.document is None:
-            return
-        name, _ = QFileDialog.getSaveFileName(self, "Save material", "", "BRDF materials (*.xml)")
+    def open_mesh(self, path: Path) -> bool:
+        try:
+            mesh = load_mesh(path)
+        except BRDFLabError as e:
+            self.show_error(str(e))
+            return False
+        self.object_view.when_ready(lambda: self.object_view.renderer.set_mesh(mesh))
+        self.object_view.restart()
+        return True
+
+    def open_mesh_dialog(self) -> None:
+        name, _ = QFileDialog.getOpenFileName(self, "Open mesh", self._folder("mesh"), "Meshes (*.obj *.ply *.stl *.off *.glb *.gltf)")
         if name:
-            try:
-                xmlio.save(self.document, Path(name))
-            except BRDFLabError as e:
-                self.show_error(str(e))
-            self.refresh()
+            self.settings.setValue("folders/mesh", str(Path(name).parent))
+            self.open_mesh(Path(name))
+
+    def open_environment(self, path: Path) -> bool:
+        try:
+            env = load_environment(path)
+        except BRDFLabError as e:
+            self.show_error(str(e))
+            return False
+        self.object_view.when_ready(lambda: self.object_view.renderer.set_environment(env))
+        self.object_view.restart()
+        return True
+
+    def open_environment_dialog(self) -> None:
+        name, _ = QFileDialog.getOpenFileName(self, "Open environment", self._folder("env"), "HDR maps (*.hdr *.exr)")
+        if name:
+            self.settings.setValue("folders/env", str(Path(name).parent))
+            self.open_environment(Path(name))
+
+    def save(self) -> bool:
+        if self.workspace.path is None:
+            return self.save_as()
+        return self._save_to(self.workspace.path)
+
+    def save_as(self) -> bool:
+        name, _ = QFileDialog.getSaveFileName(self, "Save material", self._folder("save"), "BRDFLab materials (*.xml)")
+        if not name:
+            return False
+        path = Path(name if name.lower().endswith(".xml") else name + ".xml")
+        self.settings.setValue("folders/save", str(path.parent))
+        return self._save_to(path)
+
+    def _save_to(self, path: Path) -> bool:
+        try:
+            self.workspace.save(path)
+        except BRDFLabError as e:
+            self.show_error(str(e))
+            return False
+        self.undo_stack.setClean()
+        self._remember(path)
+        self._refresh_text()
+        self.statusBar().showMessage(f"saved {path}", 5000)
+        return True
+
+    def _folder(self, kind: str) -> str:
+        return str(self.settings.value(f"folders/{kind}", str(Path.home())))
+
+    def _remember(self, path: Path) -> None:
+        recent = [p for p in (self.settings.value("recent") or []) if p != str(path)]
+        self.settings.setValue("recent", [str(path)] + recent[: MAX_RECENT - 1])
+        self._update_recent()
+
+    def _update_recent(self) -> None:
+        if self.recent_menu is None:
+            return
+        self.recent_menu.clear()
+        for p in self.settings.value("recent") or []:
+            action = self.recent_menu.addAction(p)
+            action.triggered.connect(lambda _=False, p=p: self.maybe_save() and self.open_path(Path(p)))
+
+    def dragEnterEvent(self, event) -> None:
+        if event.mimeData().hasUrls():
+            event.acceptProposedAction()
+
+    def dropEvent(self, event) -> None:
+        for url in event.mimeData().urls():
+            path = Path(url.toLocalFile())
+            ext = path.suffix.lower()
+            if ext in (".obj", ".ply", ".stl", ".off", ".glb", ".gltf"):
+                self.open_mesh(path)
+            elif ext in (".hdr", ".exr"):
+                self.open_environment(path)
+            elif self.maybe_save():
+                self.open_path(path)
+
+    def closeEvent(self, event) -> None:
+        if not self.maybe_save():
+            event.ignore()
+            return
+        self.stop_fit()
+        if self._thread is not None:
+            self._thread.quit()
+            self._thread.wait(5000)
+        self.settings.setValue("geometry", self.saveGeometry())
+        self.settings.setValue("state", self.saveState())
+        event.accept()
 
     def show_error(self, message: str) -> None:
-        self.statusBar().showMessage(message, 15000)
-        QMessageBox.warning(self, "BRDFLab", message)
+        self.statusBar().showMessage(message, 20000)
+        box = QMessageBox(QMessageBox.Warning, "BRDFLab", message, QMessageBox.Ok, self)
+        box.setAttribute(Qt.WA_DeleteOnClose)
+        box.open()  # not modal-blocking: the program keeps running
 
-    def refresh(self) -> None:
-        doc = self.document
-        title = doc.path.name if doc and doc.path else "untitled"
-        self.setWindowTitle(f"{title} — BRDFLab")
-        self.xml_view.setPlainText(xmlio.to_bytes(doc).decode() if doc else "")
-        self.lobe_tree.clear()
-        if doc is None or not hasattr(doc.material, "lobes"):
+    # --- fitting -------------------------------------------------------------------------------
+    def start_fit(self, lobes: list, combination: str, metric: str, kind: str, size: int, start=None) -> None:
+        if self._thread is not None:
             return
-        for k, lobe in enumerate(doc.material.lobes):
-            item = QTreeWidgetItem([f"{k}: {lobe.model.name}", ", ".join(f"{s:.4g}" for s in lobe.scale)])
-            for name, value in lobe.params.items():
-                item.addChild(QTreeWidgetItem([name, f"{value:.6g}"]))
-            self.lobe_tree.addTopLevelItem(item)
-        self.lobe_tree.expandAll()
+        source = self.workspace.original()
+        if source is None:
+            self.show_error("nothing to fit: the measured data of this material is missing")
+            return
+        try:
+            if start is None:
+                start = material_from_lobes(lobes, combination, source.n_channels)
+            samples = samples_of(source, kind, size=size, density=45)
+        except BRDFLabError as e:
+            self.show_error(str(e))
+            return
+        options = FitOptions(metric=metric)
+        self._worker = FitWorker(start, samples, options)
+        self._thread = QThread(self)
+        self._worker.moveToThread(self._thread)
+        self._thread.started.connect(self._worker.run)
+        self._worker.progress.connect(self._fit_progress)
+        self._worker.finished.connect(self._fit_finished)
+        self._worker.failed.connect(self._fit_failed)
+        self._thread.start()
+        self.fitting.set_running(True)
+        self.fitting.status.setText(f"fitting {samples.size} samples…")
+
+    def stop_fit(self) -> None:
+        if self._worker is not None:
+            self._worker.cancel.set()
+
+    def _fit_progress(self, p: FitProgress) -> None:
+        self._candidate = p.material
+        self.fitting.status.setText(f"{p.stage}: iteration {p.iteration}, {self._worker.options.metric} error {p.error:.6g}")
+        self._push_lobe_sources()
+        if self.object_controls.show.currentText() == "fitted":
+            self._push_object_source()
+
+    def _end_fit(self) -> None:
+        self.fitting.set_running(False)
+        self._candidate = None
+        thread, self._thread, self._worker = self._thread, None, None
+        thread.quit()
+        thread.wait()
+
+    def _fit_finished(self, result: FitResult) -> None:
+        self._end_fit()
+        old = (tuple(self.workspace.document.fittings), self.workspace.shown_fit)
+        new_list = list(old[0])
+        from ..xmlio import Fitting
+
+        new_list.append(Fitting(result.material, result.error, False, "LevenbergMarquardt", result.statistics()))
+        self.undo_stack.push(ReplaceFittings(self, old, (tuple(new_list), len(new_list) - 1), "Fit"))
+        self.fitting.status.setText(f"{result.metric} error {result.error:.6g} after {result.iterations} iterations, "
+                                    f"{result.seconds:.2f} s ({result.status})")
+
+    def _fit_failed(self, message: str) -> None:
+        self._end_fit()
+        self.fitting.status.setText(message)
+        self.show_error(message)
+        self.fittings_changed()
+
+    def _select_fit(self, index: int) -> None:
+        self.workspace.shown_fit = index
+        self._push_lobe_sources()
+        self._push_object_source()
+        self._plot_timer.start()
+
+    def _refit(self, index: int) -> None:
+        start = self.workspace.document.fittings[index].material.copy()
+        f = self.fitting
+        self.start_fit([], start.combination, f.metric.currentText(), f.sample_kind.currentText(), f.size.value(), start)
+
+    def _promote(self, index: int) -> None:
+        material = self.workspace.document.fittings[index].material.copy()
+        if self.workspace.analytic is None:
+            self.show_error("a measured material keeps its data; its fits are stored with it")
+            return
+        self._edit(material, "Make fit the main material")
+
+
+

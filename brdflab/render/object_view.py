@@ -204,6 +204,10 @@ class ObjectRenderer:
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return tex
 
+    # --- progressive refinement (the GUI) ----------------------------------------------------------
+    def start_progressive(self, settings: RenderSettings) -> "Progressive":
+        return Progressive(self, settings)
+
     def render(self, settings: RenderSettings) -> np.ndarray:
         """Linear radiance (H, W, 3), row 0 at the top; 0 where nothing is drawn."""
         w, h = settings.width, settings.height
@@ -252,3 +256,88 @@ class ObjectRenderer:
             color.release()
             depth.release()
         return np.ascontiguousarray(img[::-1, :, :3] * scale)
+
+
+class Progressive:
+    """An image that keeps improving while the view stays still: each `step` adds a fresh
+    sample set (Cranley–Patterson rotated) to a float accumulation target."""
+
+    def __init__(self, renderer: ObjectRenderer, settings: RenderSettings) -> None:
+        self.renderer = renderer
+        self.settings = settings
+        ctx = renderer.ctx
+        self.texture = ctx.texture((settings.width, settings.height), 4, dtype="f4")
+        self.depth = ctx.depth_renderbuffer((settings.width, settings.height))
+        self.fbo = ctx.framebuffer([self.texture], self.depth)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.samples = 0
+        self.steps = 0
+        self._rng = np.random.default_rng(1)
+
+    def step(self, samples: int) -> None:
+        r, s = self.renderer, self.settings
+        ctx = r.ctx
+        previous = ctx.fbo
+        self.fbo.use()
+        ctx.viewport = (0, 0, s.width, s.height)
+        reference = s.reference_view or r.mesh is None
+        ctx.disable(moderngl.CULL_FACE)
+        if s.mode == "point":
+            if self.steps == 0:
+                ctx.enable(moderngl.DEPTH_TEST) if not reference else ctx.disable(moderngl.DEPTH_TEST)
+                ctx.depth_func = "<"
+                r.draw(s)
+                self.samples = 1
+        else:
+            rotation = None if self.steps == 0 else self._rng.random(2)
+            tex = r.samples_texture(samples, rotation)
+            footprint = self.samples + samples  # filter for all samples so far: the bias vanishes
+            if reference:
+                ctx.disable(moderngl.DEPTH_TEST)
+            else:
+                ctx.enable(moderngl.DEPTH_TEST)
+                if self.steps == 0:
+                    ctx.depth_func = "<"
+                    self.fbo.color_mask = (False, False, False, False)
+                    r.draw(s, (0, 0), tex, footprint)
+                    self.fbo.color_mask = (True, True, True, True)
+                self.fbo.depth_mask = False
+                ctx.depth_func = "=="
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.ONE, moderngl.ONE
+            try:
+                for begin in range(0, samples, BATCH):
+                    r.draw(s, (begin, min(samples, begin + BATCH)), tex, footprint)
+            finally:
+                ctx.disable(moderngl.BLEND)
+                self.fbo.depth_mask = True
+                ctx.depth_func = "<"
+                tex.release()
+            self.samples += samples
+        self.steps += 1
+        previous.use()
+
+    def release(self) -> None:
+        for obj in (self.fbo, self.texture, self.depth):
+            obj.release()
+
+
+class Display:
+    """Draws an accumulated image into the bound framebuffer, tone-mapped."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        src = shader_source("display.glsl")
+        self.ctx = ctx
+        self.program = ctx.program(vertex_shader=GLSL_VERSION + "#define VERTEX\n" + src,
+                                   fragment_shader=GLSL_VERSION + src)
+        self.vao = ctx.vertex_array(self.program, [])
+
+    def draw(self, image: Progressive, exposure: float = 0.0, reinhard: bool = False,
+             background=(0.12, 0.12, 0.14)) -> None:
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        image.texture.use(0)
+        _set(self.program, "u_image", 0)
+        _set(self.program, "u_scale", float(2.0**exposure / max(image.samples, 1)))
+        _set(self.program, "u_reinhard", bool(reinhard))
+        _set(self.program, "u_background", tuple(background))
+        self.vao.render(moderngl.TRIANGLES, vertices=3)

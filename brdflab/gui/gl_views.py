@@ -1,0 +1,208 @@
+"""OpenGL views inside Qt: the renderers of brdflab.render drawing into QOpenGLWidgets."""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+from PySide6.QtCore import QPointF, Qt, QTimer, Signal
+from PySide6.QtGui import QSurfaceFormat
+from PySide6.QtOpenGLWidgets import QOpenGLWidget
+
+from ..errors import BRDFLabError
+from ..render.lobe_view import LobeViewer
+from ..render.object_view import Display, ObjectRenderer, RenderSettings
+
+
+def set_default_surface_format() -> None:
+    """OpenGL 3.3 core with depth, for every QOpenGLWidget (call before QApplication)."""
+    fmt = QSurfaceFormat()
+    fmt.setVersion(3, 3)
+    fmt.setProfile(QSurfaceFormat.CoreProfile)
+    fmt.setDepthBufferSize(24)
+    QSurfaceFormat.setDefaultFormat(fmt)
+
+
+class _GLView(QOpenGLWidget):
+    """Shared plumbing: a moderngl context on the widget's own GL context, orbit by drag."""
+
+    failed = Signal(str)
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.ctx: moderngl.Context | None = None
+        self._last: QPointF | None = None
+        self.setMinimumSize(240, 200)
+
+    def initializeGL(self) -> None:
+        try:
+            self.ctx = moderngl.create_context()
+            self.setup()
+        except Exception as e:  # no usable OpenGL: say so instead of crashing
+            self.ctx = None
+            self.failed.emit(f"OpenGL is not available for this view: {str(e).splitlines()[0] if str(e) else e}")
+
+    def setup(self) -> None:
+        raise NotImplementedError
+
+    def camera(self):
+        raise NotImplementedError
+
+    def framebuffer(self) -> moderngl.Framebuffer:
+        return self.ctx.detect_framebuffer(self.defaultFramebufferObject())
+
+    def pixel_size(self) -> tuple[int, int]:
+        r = self.devicePixelRatioF()
+        return max(1, int(self.width() * r)), max(1, int(self.height() * r))
+
+    def mousePressEvent(self, e) -> None:
+        self._last = e.position()
+
+    def mouseReleaseEvent(self, e) -> None:
+        self._last = None
+
+    def mouseMoveEvent(self, e) -> None:
+        if self._last is None or self.ctx is None:
+            return
+        d = e.position() - self._last
+        self._last = e.position()
+        self.drag(d.x(), d.y(), e.buttons(), e.modifiers())
+
+    def drag(self, dx: float, dy: float, buttons, modifiers) -> None:
+        self.camera().orbit(-0.5 * dx, 0.5 * dy)
+        self.view_changed()
+
+    def wheelEvent(self, e) -> None:
+        if self.ctx is None:
+            return
+        self.camera().zoom(0.9 if e.angleDelta().y() > 0 else 1.1)
+        self.view_changed()
+
+    def view_changed(self) -> None:
+        self.update()
+
+
+class LobeView(_GLView):
+    """The lobe viewer; right-drag (or Shift+drag) moves the incident direction."""
+
+    incident_changed = Signal(float, float)
+
+    def setup(self) -> None:
+        self.viewer = LobeViewer(self.ctx)
+        self._pending = getattr(self, "_pending", [])
+        for fn in self._pending:
+            fn()
+        self._pending.clear()
+
+    def camera(self):
+        return self.viewer.camera
+
+    def when_ready(self, fn) -> None:
+        """Run fn now if GL is initialised, else right after initialisation."""
+        if self.ctx is not None:
+            self.makeCurrent()
+            try:
+                fn()
+            finally:
+                self.doneCurrent()
+            self.update()
+        else:
+            self._pending = getattr(self, "_pending", [])
+            self._pending.append(fn)
+
+    def paintGL(self) -> None:
+        if self.ctx is None:
+            return
+        w, h = self.pixel_size()
+        fbo = self.framebuffer()
+        fbo.use()
+        self.ctx.viewport = (0, 0, w, h)
+        fbo.clear(0.12, 0.12, 0.14, 1.0, depth=1.0)
+        try:
+            self.viewer.draw(w, h)
+        except BRDFLabError as e:
+            self.failed.emit(str(e))
+
+    def drag(self, dx, dy, buttons, modifiers) -> None:
+        if buttons & Qt.RightButton or modifiers & Qt.ShiftModifier:
+            s = self.viewer.settings
+            theta = min(89.0, max(0.0, s.theta_i + 0.5 * dy))
+            phi = (s.phi_i - 0.5 * dx) % 360.0
+            self.incident_changed.emit(theta, phi)
+        else:
+            super().drag(dx, dy, buttons, modifiers)
+
+
+class ObjectView(_GLView):
+    """The object view; refines progressively while the view is still."""
+
+    STEP_SAMPLES = 8
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.settings = RenderSettings(reference_view=False, samples=256)
+        self.exposure = 0.0
+        self.reinhard = False
+        self._progressive = None
+        self._timer = QTimer(self)
+        self._timer.setInterval(0)
+        self._timer.timeout.connect(self.update)
+
+    def setup(self) -> None:
+        self.renderer = ObjectRenderer(self.ctx)
+        self.display = Display(self.ctx)
+        self._pending = getattr(self, "_pending", [])
+        for fn in self._pending:
+            fn()
+        self._pending.clear()
+
+    def camera(self):
+        return self.renderer.camera
+
+    when_ready = LobeView.when_ready
+
+    def restart(self) -> None:
+        """Something changed: throw the accumulated samples away."""
+        if self._progressive is not None and self.ctx is not None:
+            self.makeCurrent()
+            self._progressive.release()
+            self.doneCurrent()
+        self._progressive = None
+        self.update()
+
+    view_changed = restart
+
+    @property
+    def samples_done(self) -> int:
+        return 0 if self._progressive is None else self._progressive.samples
+
+    def paintGL(self) -> None:
+        if self.ctx is None or getattr(self.renderer, "material", None) is None:
+            return
+        w, h = self.pixel_size()
+        try:
+            if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
+                if self._progressive is not None:
+                    self._progressive.release()
+                s = self.settings
+                self._progressive = self.renderer.start_progressive(RenderSettings(**{**s.__dict__, "width": w, "height": h}))
+            p = self._progressive
+            target = 1 if self.settings.mode == "point" else self.settings.samples
+            if p.samples < target:
+                p.step(min(self.STEP_SAMPLES * (1 + p.steps), target - p.samples))
+            fbo = self.framebuffer()
+            fbo.use()
+            self.ctx.viewport = (0, 0, w, h)
+            self.display.draw(p, self.exposure, self.reinhard)
+            if p.samples < target:
+                self._timer.start()
+            else:
+                self._timer.stop()
+        except BRDFLabError as e:
+            self._timer.stop()
+            self.failed.emit(str(e))
+
+    def resizeGL(self, w: int, h: int) -> None:
+        if self._progressive is not None:
+            self._progressive.release()  # the context is current during resizeGL
+        self._progressive = None

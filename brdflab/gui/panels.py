@@ -1,0 +1,451 @@
+"""The dock panels. Each shows part of the Workspace and reports edits as signals; the
+main window turns edits into undoable commands."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from PySide6.QtCore import QSignalBlocker, Qt, Signal
+from PySide6.QtGui import QColor, QFont, QSyntaxHighlighter, QTextCharFormat
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QDoubleSpinBox,
+    QFormLayout,
+    QGridLayout,
+    QHBoxLayout,
+    QLabel,
+    QListWidget,
+    QPlainTextEdit,
+    QProgressBar,
+    QPushButton,
+    QSlider,
+    QSpinBox,
+    QTreeWidget,
+    QTreeWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from ..albedo import energy_check
+from ..fit import METRICS
+from ..material import AnalyticMaterial
+from ..models import model_names
+
+CHANNEL_COLORS = ("#d04040", "#40a040", "#4060d0")
+SLIDER_STEPS = 1000
+
+
+class ParameterRow(QWidget):
+    """A spin box and a slider for one bounded value (log-scaled when it spans decades)."""
+
+    edited = Signal(float)
+
+    def __init__(self, lower: float, upper: float, value: float, log: bool = False) -> None:
+        super().__init__()
+        self.lower, self.upper, self.log = lower, upper, log
+        self.spin = QDoubleSpinBox(decimals=6, minimum=lower, maximum=upper)
+        self.spin.setKeyboardTracking(False)
+        self.spin.setSingleStep((upper - lower) / 100.0)
+        self.slider = QSlider(Qt.Horizontal, minimum=0, maximum=SLIDER_STEPS)
+        lay = QHBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(self.spin, 1)
+        lay.addWidget(self.slider, 2)
+        self.set_value(value)
+        self.spin.valueChanged.connect(self.edited.emit)
+        self.slider.valueChanged.connect(lambda t: self.edited.emit(self._from_slider(t)))
+
+    def _span(self):
+        c = max(1e-5 * (self.upper - self.lower), 1e-12)
+        return c, math.log(c), math.log(self.upper - self.lower + c)
+
+    def _to_slider(self, v: float) -> int:
+        if self.log:
+            c, a, b = self._span()
+            t = (math.log(v - self.lower + c) - a) / (b - a)
+        else:
+            t = (v - self.lower) / (self.upper - self.lower)
+        return int(round(max(0.0, min(1.0, t)) * SLIDER_STEPS))
+
+    def _from_slider(self, t: int) -> float:
+        t = t / SLIDER_STEPS
+        if self.log:
+            c, a, b = self._span()
+            return min(self.upper, max(self.lower, self.lower + math.exp(a + t * (b - a)) - c))
+        return self.lower + t * (self.upper - self.lower)
+
+    def set_value(self, v: float) -> None:
+        with QSignalBlocker(self.spin), QSignalBlocker(self.slider):
+            self.spin.setValue(v)
+            self.slider.setValue(self._to_slider(v))
+
+
+class MaterialEditor(QWidget):
+    """Lobes as a tree, their parameters and scales, the combination, the energy check."""
+
+    parameter_edited = Signal(int, str, float)  # lobe, parameter, value
+    scale_edited = Signal(int, int, float)  # lobe, channel, value
+    lobe_added = Signal(str)
+    lobe_removed = Signal(int)
+    lobe_moved = Signal(int, int)
+    combination_changed = Signal(str)
+    channels_changed = Signal(int)
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.material: AnalyticMaterial | None = None
+        self.tree = QTreeWidget()
+        self.tree.setHeaderLabels(["Lobe", "Scale / value"])
+        self.tree.currentItemChanged.connect(lambda *_: self._show_lobe())
+        self.model_box = QComboBox()
+        self.model_box.addItems(model_names())
+        add = QPushButton("Add")
+        add.clicked.connect(lambda: self.lobe_added.emit(self.model_box.currentText()))
+        remove = QPushButton("Remove")
+        remove.clicked.connect(lambda: self.current() is not None and self.lobe_removed.emit(self.current()))
+        up, down = QPushButton("Up"), QPushButton("Down")
+        up.clicked.connect(lambda: self.current() is not None and self.lobe_moved.emit(self.current(), -1))
+        down.clicked.connect(lambda: self.current() is not None and self.lobe_moved.emit(self.current(), 1))
+        self.combination = QComboBox()
+        self.combination.addItems(["Linear", "Fixed"])
+        self.combination.activated.connect(lambda _: self.combination_changed.emit(self.combination.currentText()))
+        self.channels = QSpinBox(minimum=1, maximum=16)
+        self.channels.setKeyboardTracking(False)
+        self.channels.valueChanged.connect(self.channels_changed.emit)
+        self.energy = QLabel()
+        self.params = QFormLayout()
+        params_box = QWidget()
+        params_box.setLayout(self.params)
+
+        top = QHBoxLayout()
+        top.addWidget(QLabel("Combination"))
+        top.addWidget(self.combination)
+        top.addWidget(QLabel("Channels"))
+        top.addWidget(self.channels)
+        buttons = QHBoxLayout()
+        for w in (self.model_box, add, remove, up, down):
+            buttons.addWidget(w)
+        lay = QVBoxLayout(self)
+        lay.addLayout(top)
+        lay.addWidget(self.tree, 2)
+        lay.addLayout(buttons)
+        lay.addWidget(params_box, 3)
+        lay.addWidget(self.energy)
+
+    def current(self) -> int | None:
+        item = self.tree.currentItem()
+        return None if item is None else item.data(0, Qt.UserRole)
+
+    def show_material(self, material: AnalyticMaterial | None) -> None:
+        keep = self.current()
+        self.material = material
+        self.setEnabled(material is not None)
+        with QSignalBlocker(self.tree):
+            self.tree.clear()
+            if material is None:
+                self._clear_params()
+                self.energy.setText("A measured material: fit lobes to it in the Fitting panel.")
+                return
+            for k, lobe in enumerate(material.lobes):
+                label = lobe.model.name + (f"  (channel {lobe.channel})" if lobe.channel is not None else "")
+                item = QTreeWidgetItem([label, ", ".join(f"{s:.4g}" for s in lobe.scale)])
+                item.setData(0, Qt.UserRole, k)
+                self.tree.addTopLevelItem(item)
+            if material.lobes:
+                k = keep if keep is not None and keep < len(material.lobes) else 0
+                self.tree.setCurrentItem(self.tree.topLevelItem(k))
+        with QSignalBlocker(self.combination), QSignalBlocker(self.channels):
+            self.combination.setCurrentText(material.combination)
+            self.channels.setValue(material.n_channels)
+        self._show_lobe()
+        report = energy_check(material) if material.lobes else None
+        if report is None:
+            self.energy.setText("No lobes.")
+        elif report.conserves:
+            self.energy.setText("Energy: albedo ≤ 1 for every view (max " + ", ".join(f"{a:.3f}" for a in report.max_albedo) + ")")
+            self.energy.setStyleSheet("color: #2a7a2a")
+        else:
+            self.energy.setText("⚠ Energy: albedo up to " + ", ".join(f"{a:.3f}" for a in report.max_albedo) + " > 1")
+            self.energy.setStyleSheet("color: #b03030; font-weight: bold")
+
+    def _clear_params(self) -> None:
+        while self.params.rowCount():
+            self.params.removeRow(0)
+
+    def _show_lobe(self) -> None:
+        self._clear_params()
+        k = self.current()
+        if self.material is None or k is None or k >= len(self.material.lobes):
+            return
+        lobe = self.material.lobes[k]
+        for p in lobe.model.parameters:
+            row = ParameterRow(p.lower, p.upper, lobe.params[p.name], p.log)
+            row.setToolTip(p.doc)
+            row.edited.connect(lambda v, name=p.name, k=k: self.parameter_edited.emit(k, name, v))
+            self.params.addRow(p.name, row)
+        for c, s in enumerate(lobe.scale):
+            row = ParameterRow(0.0, max(10.0, 2 * s), s, False)
+            channel = c if lobe.channel is None else lobe.channel
+            swatch = QLabel("■")
+            swatch.setStyleSheet(f"color: {CHANNEL_COLORS[channel % 3]}; font-size: 16px")
+            box = QWidget()
+            bl = QHBoxLayout(box)
+            bl.setContentsMargins(0, 0, 0, 0)
+            bl.addWidget(swatch)
+            bl.addWidget(row, 1)
+            row.edited.connect(lambda v, c=c, k=k: self.scale_edited.emit(k, c, v))
+            self.params.addRow("value" if lobe.channel is not None else f"scale {c}", box)
+
+
+class LobeControls(QWidget):
+    """θ/φ of the incident direction and how the lobe is drawn."""
+
+    changed = Signal()
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.theta = ParameterRow(0.0, 89.0, 30.0)
+        self.phi = ParameterRow(0.0, 359.0, 0.0)
+        self.transfer = QComboBox()
+        self.transfer.addItems(["cbrt", "linear", "log"])
+        self.channel = QComboBox()
+        self.channel.addItems(["luminance", "red", "green", "blue"])
+        self.cosine = QCheckBox("× cos θo")
+        self.level = QSpinBox(minimum=2, maximum=7, value=5)
+        self.translucent = QCheckBox("translucent fit")
+        self.translucent.setChecked(True)
+        form = QFormLayout(self)
+        form.addRow("θi (°)", self.theta)
+        form.addRow("φi (°)", self.phi)
+        row = QHBoxLayout()
+        for w in (QLabel("transfer"), self.transfer, QLabel("channel"), self.channel, self.cosine):
+            row.addWidget(w)
+        form.addRow(row)
+        row2 = QHBoxLayout()
+        for w in (QLabel("subdivision"), self.level, self.translucent):
+            row2.addWidget(w)
+        form.addRow(row2)
+        for sig in (self.theta.edited, self.phi.edited):
+            sig.connect(lambda _: self.changed.emit())
+        for box in (self.transfer, self.channel):
+            box.currentIndexChanged.connect(lambda _: self.changed.emit())
+        self.cosine.toggled.connect(lambda _: self.changed.emit())
+        self.translucent.toggled.connect(lambda _: self.changed.emit())
+        self.level.valueChanged.connect(lambda _: self.changed.emit())
+
+    def apply(self, settings) -> None:
+        settings.theta_i = self.theta.spin.value()
+        settings.phi_i = self.phi.spin.value()
+        settings.transfer = self.transfer.currentText()
+        settings.channel = self.channel.currentText()
+        settings.cosine = self.cosine.isChecked()
+        settings.level = self.level.value()
+        settings.translucent_fit = self.translucent.isChecked()
+
+
+class ObjectControls(QWidget):
+    """Lighting mode, samples, exposure, environment rotation, which material is shown."""
+
+    changed = Signal()
+    open_mesh = Signal()
+    open_environment = Signal()
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.mode = QComboBox()
+        self.mode.addItems(["fis", "point"])
+        self.samples = QSpinBox(minimum=1, maximum=4096, value=256)
+        self.exposure = ParameterRow(-8.0, 8.0, 0.0)
+        self.rotation = ParameterRow(0.0, 359.0, 0.0)
+        self.light_theta = ParameterRow(0.0, 89.0, 35.0)
+        self.light_phi = ParameterRow(0.0, 359.0, 40.0)
+        self.show = QComboBox()
+        self.show.addItems(["original", "fitted"])
+        self.reinhard = QCheckBox("Reinhard")
+        mesh, env = QPushButton("Open mesh…"), QPushButton("Open environment…")
+        mesh.clicked.connect(self.open_mesh.emit)
+        env.clicked.connect(self.open_environment.emit)
+        form = QFormLayout(self)
+        form.addRow("lighting", self.mode)
+        form.addRow("samples", self.samples)
+        form.addRow("exposure (EV)", self.exposure)
+        form.addRow("environment rotation (°)", self.rotation)
+        form.addRow("light θ (°)", self.light_theta)
+        form.addRow("light φ (°)", self.light_phi)
+        form.addRow("show", self.show)
+        row = QHBoxLayout()
+        for w in (mesh, env, self.reinhard):
+            row.addWidget(w)
+        form.addRow(row)
+        self.mode.currentIndexChanged.connect(lambda _: self.changed.emit())
+        self.samples.valueChanged.connect(lambda _: self.changed.emit())
+        self.show.currentIndexChanged.connect(lambda _: self.changed.emit())
+        self.reinhard.toggled.connect(lambda _: self.changed.emit())
+        for row_ in (self.exposure, self.rotation, self.light_theta, self.light_phi):
+            row_.edited.connect(lambda _: self.changed.emit())
+
+    def light(self) -> tuple[float, float, float]:
+        t, p = math.radians(self.light_theta.spin.value()), math.radians(self.light_phi.spin.value())
+        # world: +Y up, the camera starts on +Z
+        return (math.sin(t) * math.sin(p), math.cos(t), math.sin(t) * math.cos(p))
+
+
+class FittingPanel(QWidget):
+    """Stored fits, and a new fit: lobes, strategy, metric, samples; Fit / Stop."""
+
+    fit_requested = Signal(list, str, str, str, int)  # lobes, combination, metric, sample kind, size
+    stop_requested = Signal()
+    fit_selected = Signal(int)
+    refit_requested = Signal(int)
+    promote_requested = Signal(int)
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.fits = QListWidget()
+        self.fits.currentRowChanged.connect(lambda r: r >= 0 and self.fit_selected.emit(r))
+        self.lobes = QComboBox()
+        self.lobes.setEditable(True)
+        self.lobes.addItems(["Lambertian,LafortuneIso", "Lambertian,CookTorrance", "Lambertian,Ward",
+                             "Lambertian,Kurt", "Lambertian,CookTorrance,CookTorrance", "Lambertian,BlinnPhong"])
+        self.strategy = QComboBox()
+        self.strategy.addItems(["Linear", "Fixed"])
+        self.metric = QComboBox()
+        self.metric.addItems(list(METRICS))
+        self.metric.setCurrentText("Ngan")
+        self.sample_kind = QComboBox()
+        self.sample_kind.addItems(["all", "subset", "grid"])
+        self.size = QSpinBox(minimum=1000, maximum=2_000_000, value=50_000, singleStep=10_000)
+        self.fit_button, self.stop_button = QPushButton("Fit"), QPushButton("Stop")
+        self.stop_button.setEnabled(False)
+        self.refit_button, self.promote_button = QPushButton("Fit again from this"), QPushButton("Make main material")
+        self.progress = QProgressBar()
+        self.progress.setRange(0, 0)
+        self.progress.setVisible(False)
+        self.status = QLabel("")
+        self.fit_button.clicked.connect(self._request)
+        self.stop_button.clicked.connect(self.stop_requested.emit)
+        self.refit_button.clicked.connect(lambda: self.fits.currentRow() >= 0 and self.refit_requested.emit(self.fits.currentRow()))
+        self.promote_button.clicked.connect(lambda: self.fits.currentRow() >= 0 and self.promote_requested.emit(self.fits.currentRow()))
+        grid = QGridLayout(self)
+        grid.addWidget(QLabel("Stored fits"), 0, 0, 1, 2)
+        grid.addWidget(self.fits, 1, 0, 1, 4)
+        grid.addWidget(self.refit_button, 2, 0, 1, 2)
+        grid.addWidget(self.promote_button, 2, 2, 1, 2)
+        grid.addWidget(QLabel("lobes"), 3, 0)
+        grid.addWidget(self.lobes, 3, 1, 1, 3)
+        grid.addWidget(QLabel("strategy"), 4, 0)
+        grid.addWidget(self.strategy, 4, 1)
+        grid.addWidget(QLabel("metric"), 4, 2)
+        grid.addWidget(self.metric, 4, 3)
+        grid.addWidget(QLabel("samples"), 5, 0)
+        grid.addWidget(self.sample_kind, 5, 1)
+        grid.addWidget(self.size, 5, 2, 1, 2)
+        grid.addWidget(self.fit_button, 6, 0, 1, 2)
+        grid.addWidget(self.stop_button, 6, 2, 1, 2)
+        grid.addWidget(self.progress, 7, 0, 1, 4)
+        grid.addWidget(self.status, 8, 0, 1, 4)
+
+    def _request(self) -> None:
+        lobes = [s.strip() for s in self.lobes.currentText().split(",") if s.strip()]
+        self.fit_requested.emit(lobes, self.strategy.currentText(), self.metric.currentText(),
+                                self.sample_kind.currentText(), self.size.value())
+
+    def show_fits(self, fittings, shown: int | None) -> None:
+        with QSignalBlocker(self.fits):
+            self.fits.clear()
+            for k, f in enumerate(fittings):
+                lobes = "+".join(dict.fromkeys(l.model.name for l in f.material.lobes))
+                err = "—" if f.error is None else f"{f.error:.5g}"
+                metric = f.statistics.get("metric", "")
+                self.fits.addItem(f"{k}: {lobes}  {metric} {err}")
+            if shown is not None and shown < len(fittings):
+                self.fits.setCurrentRow(shown)
+
+    def set_running(self, running: bool) -> None:
+        self.fit_button.setEnabled(not running)
+        self.stop_button.setEnabled(running)
+        self.progress.setVisible(running)
+
+
+class PlotsPanel(QWidget):
+    """BRDF Explorer's plots: the plane of incidence (polar), a θh × θd slice, albedo(θ)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
+        from matplotlib.figure import Figure
+
+        self.figure = Figure(figsize=(9, 3), tight_layout=True)
+        self.canvas = FigureCanvasQTAgg(self.figure)
+        QVBoxLayout(self).addWidget(self.canvas)
+
+    def show_sources(self, original, fitted, theta_i_deg: float) -> None:
+        from ..albedo import directional_albedo
+        from ..halfdiff import from_half_diff
+        from ..vec import spherical_to_cartesian
+
+        self.figure.clear()
+        ax1 = self.figure.add_subplot(1, 3, 1, projection="polar")
+        ax2 = self.figure.add_subplot(1, 3, 2)
+        ax3 = self.figure.add_subplot(1, 3, 3)
+        t = np.radians(np.linspace(-89.5, 89.5, 361))
+        wo = spherical_to_cartesian(np.abs(t), np.where(t < 0, np.pi, 0.0))
+        wi = np.broadcast_to(spherical_to_cartesian(np.radians(theta_i_deg), np.pi), wo.shape)
+        lum = np.array([0.2126, 0.7152, 0.0722])
+        for source, label, style in ((original, "original", "-"), (fitted, "fitted", "--")):
+            if source is None:
+                continue
+            f = np.asarray(source.evaluate(wi, wo))[:, :3]
+            v = f @ lum[: f.shape[1]] if f.shape[1] > 1 else f[:, 0]
+            ax1.plot(t, np.cbrt(np.maximum(v, 0)), style, label=label)
+        ax1.set_thetamin(-90)
+        ax1.set_thetamax(90)
+        ax1.set_theta_zero_location("N")
+        ax1.set_title(f"plane of incidence, θi = {theta_i_deg:.0f}° (∛f)", fontsize=8)
+        ax1.legend(fontsize=7, loc="lower left")
+        source = original if original is not None else fitted
+        if source is not None:
+            th = (np.arange(90) / 90.0) ** 2 * np.pi / 2
+            td = np.arange(90) / 90.0 * np.pi / 2
+            TH, TD = np.meshgrid(th, td, indexing="ij")
+            a, b = from_half_diff(TH.ravel(), 0.0, TD.ravel(), np.full(TH.size, np.pi / 2))
+            f = np.asarray(source.evaluate(a, b))[:, :3]
+            img = (f @ lum[: f.shape[1]] if f.shape[1] > 1 else f[:, 0]).reshape(90, 90)
+            ax2.imshow(np.log10(np.maximum(img, 1e-4)).T, origin="lower", aspect="auto", extent=(0, 90, 0, 90))
+            ax2.set_xlabel("θh bin (MERL spacing)", fontsize=8)
+            ax2.set_ylabel("θd (°)", fontsize=8)
+            ax2.set_title("log10 f, φd = 90°", fontsize=8)
+        theta = np.radians(np.linspace(0, 85, 18))
+        views = spherical_to_cartesian(theta, 0.0)
+        for src, label, style in ((original, "original", "-"), (fitted, "fitted", "--")):
+            if isinstance(src, AnalyticMaterial) and src.lobes:
+                ax3.plot(np.degrees(theta), directional_albedo(src, views, samples_log2=9) @ lum[: src.n_channels]
+                         if src.n_channels >= 3 else directional_albedo(src, views, samples_log2=9)[:, 0], style, label=label)
+        ax3.axhline(1.0, color="grey", lw=0.8, ls=":")
+        ax3.set_xlabel("θo (°)", fontsize=8)
+        ax3.set_title("directional albedo", fontsize=8)
+        self.canvas.draw_idle()
+
+
+class XmlHighlighter(QSyntaxHighlighter):
+    def highlightBlock(self, text: str) -> None:
+        import re
+
+        tag, attr, value = QTextCharFormat(), QTextCharFormat(), QTextCharFormat()
+        tag.setForeground(QColor("#2050a0"))
+        attr.setForeground(QColor("#a05020"))
+        value.setForeground(QColor("#208040"))
+        for m in re.finditer(r"</?[\w:]+|/?>", text):
+            self.setFormat(m.start(), m.end() - m.start(), tag)
+        for m in re.finditer(r'(\w+)=("[^"]*"|\'[^\']*\')', text):
+            self.setFormat(m.start(1), len(m.group(1)), attr)
+            self.setFormat(m.start(2), len(m.group(2)), value)
+
+
+class XmlView(QPlainTextEdit):
+    def __init__(self) -> None:
+        super().__init__(readOnly=True)
+        self.setFont(QFont("monospace"))
+        self.highlighter = XmlHighlighter(self.document())

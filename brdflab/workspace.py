@@ -1,0 +1,165 @@
+"""What the desktop window works on, without Qt: the document, its source and fits.
+
+The GUI only shows and edits this object; saving, fitting and rendering read it, so no
+widget ever holds the only copy of anything a file or a fit needs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import BRDFLabError
+from .material import AnalyticMaterial, Lobe
+from .measured import read_measured
+from .sources import is_xml, resolve_measured
+from .xmlio import BRDFDocument, Fitting, MeasuredReference, load, save
+
+OPEN_FILTER = "Materials and measurements (*.xml *.binary *.slice *.txt *.csv *.carpaint *.bin);;All files (*)"
+
+
+def default_material() -> AnalyticMaterial:
+    """The embedded default scene's material: Lambertian + isotropic Lafortune (BRDFLab Fig. 2)."""
+    from .resources import data_dir
+
+    return load(data_dir("materials") / "fig2_lambertian_lafortune.xml").material
+
+
+@dataclass
+class Workspace:
+    document: BRDFDocument
+    path: Path | None = None
+    source: object | None = None  # the measured data of a measured document
+    shown_fit: int | None = None
+    dirty: bool = False
+    messages: list[str] = field(default_factory=list)
+
+    # --- files --------------------------------------------------------------------------------
+    @classmethod
+    def new(cls) -> "Workspace":
+        return cls(BRDFDocument(default_material()))
+
+    @classmethod
+    def open(cls, path: Path) -> "Workspace":
+        """An XML material (its data too, when it names some) or a bare measured file."""
+        path = Path(path)
+        if not path.exists():
+            raise BRDFLabError("no such file", path)
+        if is_xml(path):
+            doc = load(path)
+            ws = cls(doc, path, messages=list(doc.warnings))
+            if isinstance(doc.material, MeasuredReference):
+                try:
+                    ws.source = resolve_measured(doc.material)
+                except BRDFLabError as e:
+                    ws.messages.append(str(e))  # the fits stay usable without the data
+            if doc.fittings:
+                ws.shown_fit = len(doc.fittings) - 1
+            return ws
+        data = read_measured(path)
+        ref = MeasuredReference(data.source_type, path.name, path.parent)
+        ref.sha256 = ref.current_sha256()
+        return cls(BRDFDocument(ref), None, data, dirty=True)
+
+    def save(self, path: Path | None = None) -> Path:
+        target = Path(path) if path else self.path
+        if target is None:
+            raise BRDFLabError("choose a file name to save to")
+        save(self.document, target)
+        self.path = target
+        self.dirty = False
+        return target
+
+    # --- what is shown --------------------------------------------------------------------------
+    @property
+    def title(self) -> str:
+        return (self.path.name if self.path else "untitled") + (" *" if self.dirty else "")
+
+    @property
+    def analytic(self) -> AnalyticMaterial | None:
+        m = self.document.material
+        return m if isinstance(m, AnalyticMaterial) else None
+
+    def original(self):
+        """The source every view shows as 'original': the analytic material or the data."""
+        return self.analytic if self.analytic is not None else self.source
+
+    def fitted(self) -> AnalyticMaterial | None:
+        if self.shown_fit is None or not (0 <= self.shown_fit < len(self.document.fittings)):
+            return None
+        return self.document.fittings[self.shown_fit].material
+
+    # --- edits (each replaces whole values, so undo can swap them back) -----------------------------
+    def replace_material(self, material: AnalyticMaterial) -> None:
+        material.validate()
+        self.document.material = material
+        self.dirty = True
+
+    def replace_fittings(self, fittings: list[Fitting], shown: int | None) -> None:
+        self.document.fittings = fittings
+        self.shown_fit = shown
+        self.dirty = True
+
+
+def with_parameter(material: AnalyticMaterial, lobe: int, name: str, value: float) -> AnalyticMaterial:
+    out = material.copy()
+    out.lobes[lobe].params[name] = float(value)
+    return out
+
+
+def with_scale(material: AnalyticMaterial, lobe: int, channel: int, value: float) -> AnalyticMaterial:
+    out = material.copy()
+    out.lobes[lobe].scale[channel] = float(value)
+    return out
+
+
+def with_lobe_added(material: AnalyticMaterial, model_name: str) -> AnalyticMaterial:
+    out = material.copy()
+    if out.combination == "Linear":
+        out.lobes.append(Lobe.create(model_name, [0.1] * out.n_channels))
+    else:
+        out.lobes.extend(Lobe.create(model_name, [0.1], c) for c in range(out.n_channels))
+    return out
+
+
+def with_lobe_removed(material: AnalyticMaterial, index: int) -> AnalyticMaterial:
+    out = material.copy()
+    del out.lobes[index]
+    return out
+
+
+def with_lobe_moved(material: AnalyticMaterial, index: int, delta: int) -> AnalyticMaterial:
+    out = material.copy()
+    j = max(0, min(len(out.lobes) - 1, index + delta))
+    out.lobes.insert(j, out.lobes.pop(index))
+    return out
+
+
+def with_combination(material: AnalyticMaterial, combination: str) -> AnalyticMaterial:
+    """Linear ↔ Fixed: Linear lobes become one lobe per channel (scale → value) and back
+    (the channel-0 lobes, each channel's value as its scale)."""
+    if combination == material.combination:
+        return material.copy()
+    if combination == "Fixed":
+        lobes = [Lobe(l.model, dict(l.params), [l.scale[c]], c) for c in range(material.n_channels) for l in material.lobes]
+    else:
+        # the i-th lobe of every channel becomes one Linear lobe (channel 0's parameters)
+        per_channel = [[l for l in material.lobes if l.channel == c] for c in range(material.n_channels)]
+        lobes = []
+        for i, lobe in enumerate(per_channel[0]):
+            scale = [ch[i].scale[0] if i < len(ch) else 0.0 for ch in per_channel]
+            lobes.append(Lobe(lobe.model, dict(lobe.params), scale))
+    return AnalyticMaterial(material.name, combination, material.n_channels, lobes, list(material.extra))
+
+
+def with_channels(material: AnalyticMaterial, n: int) -> AnalyticMaterial:
+    if n < 1:
+        raise BRDFLabError("a material needs at least one channel")
+    out = material.copy()
+    out.n_channels = n
+    if out.combination == "Linear":
+        for lobe in out.lobes:
+            lobe.scale = (lobe.scale + [lobe.scale[-1]] * n)[:n]
+    else:
+        out.lobes = [l for l in out.lobes if l.channel < n]
+    return out

@@ -1,0 +1,25 @@
+// Shows an accumulated float image: divide by the sample count, expose, tone map, sRGB.
+#ifdef VERTEX
+out vec2 v_uv;
+void main() {
+    vec2 p = vec2(float((gl_VertexID & 1) << 2) - 1.0, float((gl_VertexID & 2) << 1) - 1.0);
+    v_uv = 0.5 * p + 0.5;
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+#else
+in vec2 v_uv;
+uniform sampler2D u_image;
+uniform float u_scale;      // 2^exposure / samples
+uniform bool u_reinhard;
+uniform vec3 u_background;
+out vec4 frag;
+void main() {
+    vec4 c = texture(u_image, v_uv);
+    if (c.a <= 0.0) { frag = vec4(u_background, 1.0); return; }
+    vec3 x = max(c.rgb * u_scale, 0.0);
+    if (u_reinhard) x = x / (1.0 + x);
+    x = clamp(x, 0.0, 1.0);
+    vec3 srgb = mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), x));
+    frag = vec4(srgb, 1.0);
+}
+#endif

@@ -1,0 +1,133 @@
+"""The desktop application in a real window (Xvfb in CI), driven as a person would."""
+
+import os
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.skipif(
+    not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") not in ("offscreen",),
+    reason="needs a display (CI runs the suite under xvfb-run)",
+)
+
+
+@pytest.fixture
+def window(qtbot, tmp_path):
+    from PySide6.QtCore import QSettings
+
+    from brdflab.gui.main_window import MainWindow
+
+    w = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat))
+    w.maybe_save = lambda: True  # no modal prompts in tests
+    qtbot.addWidget(w)
+    w.show()
+    qtbot.waitExposed(w)
+    qtbot.waitUntil(lambda: w.object_view.ctx is not None and w.lobe_view.ctx is not None, timeout=10000)
+    return w
+
+
+def lobe_image(w):
+    from PySide6.QtGui import QImage
+
+    img = w.lobe_view.grabFramebuffer().convertToFormat(QImage.Format_RGB32)
+    return np.frombuffer(img.constBits(), np.uint8, img.sizeInBytes()).copy()
+
+
+def test_starts_on_the_default_scene(window, qtbot):
+    assert window.workspace.analytic is not None
+    assert [l.model.name for l in window.workspace.analytic.lobes] == ["Lambertian", "LafortuneIso"]
+    qtbot.waitUntil(lambda: window.object_view.samples_done >= 16, timeout=20000)
+    img = window.object_view.grabFramebuffer()
+    assert not img.isNull()
+
+
+def test_add_lobe_and_change_parameter_changes_the_lobe_view(window, qtbot):
+    before = lobe_image(window)
+    window.editor.model_box.setCurrentText("BlinnPhong")
+    window.editor.lobe_added.emit("BlinnPhong")
+    assert [l.model.name for l in window.workspace.analytic.lobes][-1] == "BlinnPhong"
+    window.editor.parameter_edited.emit(2, "Exponent", 400.0)
+    window.editor.scale_edited.emit(2, 0, 0.5)
+    qtbot.wait(200)
+    after = lobe_image(window)
+    assert (before != after).any()
+    assert window.workspace.analytic.lobes[2].params["Exponent"] == 400.0
+    assert window.windowTitle().startswith("untitled *")
+
+
+def test_undo_and_redo(window):
+    original = window.workspace.analytic.lobes[1].params["Exponent"]
+    window.editor.parameter_edited.emit(1, "Exponent", 77.0)
+    assert window.workspace.analytic.lobes[1].params["Exponent"] == 77.0
+    window.undo_stack.undo()
+    assert window.workspace.analytic.lobes[1].params["Exponent"] == original
+    window.undo_stack.redo()
+    assert window.workspace.analytic.lobes[1].params["Exponent"] == 77.0
+
+
+def test_save_and_reopen(window, tmp_path):
+    window.editor.parameter_edited.emit(1, "Exponent", 55.0)
+    path = tmp_path / "mine.xml"
+    assert window._save_to(path)
+    assert not window.windowTitle().endswith("*— BRDFLab")
+    assert window.open_path(path)
+    assert window.workspace.analytic.lobes[1].params["Exponent"] == 55.0
+    assert "mine.xml" in window.windowTitle()
+
+
+def test_open_measured_fit_and_cancel(window, qtbot, tmp_path):
+    from brdflab.material import AnalyticMaterial, Lobe
+    from brdflab.measured import tabulate, write_merl_binary
+
+    truth = AnalyticMaterial("t", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
+                                                Lobe.create("CookTorrance", [0.5] * 3, m=0.2, F0=0.3)])
+    path = tmp_path / "truth.binary"
+    write_merl_binary(tabulate(truth), path)
+    assert window.open_path(path)
+    assert window.workspace.analytic is None and window.workspace.source is not None
+    assert not window.editor.isEnabled()
+
+    # a fit that is stopped keeps the best so far
+    window.fitting.lobes.setCurrentText("Lambertian,CookTorrance")
+    window.fitting.sample_kind.setCurrentText("all")
+    window.fitting.fit_button.click()
+    assert window.fitting.stop_button.isEnabled()
+    qtbot.waitUntil(lambda: "iteration" in window.fitting.status.text(), timeout=30000)
+    window.fitting.stop_button.click()
+    qtbot.waitUntil(lambda: window._thread is None, timeout=30000)
+    assert len(window.workspace.document.fittings) == 1
+    assert window.workspace.document.fittings[0].statistics["status"] in ("cancelled", "converged")
+
+    # a complete fit on a subset recovers the parameters
+    window.fitting.sample_kind.setCurrentText("subset")
+    window.fitting.fit_button.click()
+    qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
+    fits = window.workspace.document.fittings
+    assert len(fits) == 2 and fits[1].statistics["status"] == "converged"
+    assert abs(fits[1].material.lobes[1].params["m"] - 0.2) < 1e-3
+    window.undo_stack.undo()  # fits are undoable too
+    assert len(window.workspace.document.fittings) == 1
+
+
+def test_switch_lighting_modes(window, qtbot):
+    for mode in ("point", "fis"):
+        window.object_controls.mode.setCurrentText(mode)
+        assert window.object_view.settings.mode == mode
+        qtbot.waitUntil(lambda: window.object_view.samples_done >= 1, timeout=20000)
+
+
+def test_corrupt_files_give_an_error_not_a_crash(window, tmp_path):
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<BRDF><Material>")
+    before = window.workspace
+    assert not window.open_path(bad)
+    assert window.workspace is before
+    assert "malformed XML" in window.statusBar().currentMessage()
+    truncated = tmp_path / "short.binary"
+    truncated.write_bytes(b"\x5a\x00\x00\x00")
+    assert not window.open_path(truncated)
+    assert "truncated" in window.statusBar().currentMessage()
+    mesh = tmp_path / "nan.obj"
+    mesh.write_text("v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert not window.open_mesh(mesh)
+    assert "NaN" in window.statusBar().currentMessage()
