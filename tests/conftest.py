@@ -37,3 +37,10 @@ def pytest_configure(config):
     except ImportError:
         return
     set_default_surface_format()  # must precede the QApplication that pytest-qt creates
+
+
+def pytest_collection_modifyitems(config, items):
+    """Run the Qt window tests first: once a headless EGL context (the render tests') is
+    current on the main thread, Mesa cannot make Qt's GLX contexts current on it. The
+    application itself never mixes the two in one process."""
+    items.sort(key=lambda item: 0 if item.fspath.basename == "test_gui.py" else 1)
