@@ -189,7 +189,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
         renderer.set_environment(load_environment(env_path))
     if args.mode == "sh":
-        renderer.sh_order = args.sh_order
+        renderer.set_sh_order(args.sh_order, None if args.sh_window == "none" else args.sh_window)
     renderer.render(RenderSettings(**{**settings.__dict__, "width": 8, "height": 8, "samples": 1}))  # compile
     t0 = time.perf_counter()
     image = renderer.render(settings)
@@ -198,8 +198,12 @@ def cmd_render(args: argparse.Namespace) -> int:
         write_exr(out, image)
     else:
         write_png(out, image, exposure=args.exposure)
+    if args.mode == "sh" and renderer.clamped_pixels:
+        print(f"brdflab render: warning: {renderer.clamped_pixels} pixels had negative radiance from SH ringing "
+              "and were clamped to 0 (try --sh-window hanning)", file=sys.stderr)
     payload = {
         "out": str(out), "seconds": seconds, "frame_ms": seconds * 1e3,
+        "clamped_pixels": renderer.clamped_pixels if args.mode == "sh" else 0,
         "settings": {"mode": args.mode, "view": args.view, "mesh": args.mesh if args.view != "reference" else "sphere",
                      "size": [width, height], "samples": args.samples, "light": light, "sh_order": args.sh_order,
                      "env": args.env, "renderer": ctx.info.get("GL_RENDERER", "")},
@@ -283,7 +287,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--env-rotation", type=float, default=0.0, help="degrees about +Y")
     p.add_argument("--light", default="0,0,1", help="direction towards the light, X,Y,Z (world)")
     p.add_argument("--samples", type=int, default=64)
-    p.add_argument("--sh-order", type=int, default=5)
+    p.add_argument("--sh-order", type=int, default=5, help="bands of the SH mode (order² coefficients)")
+    p.add_argument("--sh-window", choices=["none", "hanning", "lanczos"], default="none", help="against ringing")
     p.add_argument("--size", default="512,512", help="W,H")
     p.add_argument("--exposure", type=float, default=0.0, help="stops, for .png output")
     p.add_argument("--fitting", type=int, default=None, help="render the K-th stored fit")

@@ -1,6 +1,7 @@
 // Object view, fragment stage: shading frame, then one lighting mode.
 //   MODE_POINT: directional light, f(wi, wo) · max(0, n·L)
 //   MODE_FIS:   filtered importance sampling of an HDR lat-long map (Colbert & Křivánek)
+//   MODE_SH:    spherical harmonics (shaders/sh.glsl), unclamped so negative ringing is seen
 // Outputs the sum over this batch's samples (FIS) so batches add up in a float target.
 #ifdef GEOMETRY_REFERENCE
 in vec2 v_ndc;
@@ -75,6 +76,9 @@ void main() {
         vec3 radiance = textureLod(u_env, env_uv(d), lod).rgb;
         color += material_eval(wi, wo) * wi.z * radiance / pdf;
     }
+#endif
+#ifdef MODE_SH
+    color = sh_shade(mat3(t, b, n), wo);  // mat3 columns = the rows of world → local
 #endif
     frag = vec4(color, 1.0);
 }

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import math
+from concurrent.futures import ThreadPoolExecutor
 
 import moderngl
 from PySide6.QtCore import QPointF, Qt, QTimer, Signal
@@ -137,9 +137,12 @@ class ObjectView(_GLView):
     """The object view; refines progressively while the view is still."""
 
     STEP_SAMPLES = 8
+    busy = Signal(str)  # a long preparation started ("" when it is over)
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
+        self._pool = ThreadPoolExecutor(max_workers=1)
+        self._table_job = None
         self.settings = RenderSettings(reference_view=False, samples=256)
         self.exposure = 0.0
         self.reinhard = False
@@ -176,18 +179,39 @@ class ObjectView(_GLView):
     def samples_done(self) -> int:
         return 0 if self._progressive is None else self._progressive.samples
 
+    def _table_pending(self) -> bool:
+        """SH mode: build the BRDF table in a worker thread; True while it is not ready."""
+        from ..sh_tables import cached_table
+
+        r = self.renderer
+        if self.settings.mode != "sh" or r.sh_table_ready():
+            return False
+        if self._table_job is None:
+            source = r.source if r.source is not None else r.material
+            self._table_job = self._pool.submit(cached_table, source, r.sh_order)
+            self.busy.emit(f"building the order-{r.sh_order} SH table…")
+        if not self._table_job.done():
+            QTimer.singleShot(100, self.update)
+            return True
+        job, self._table_job = self._table_job, None
+        self.busy.emit("")
+        job.result()  # re-raises a failed build here, where it is reported
+        return False
+
     def paintGL(self) -> None:
         if self.ctx is None or getattr(self.renderer, "material", None) is None:
             return
         w, h = self.pixel_size()
         try:
+            if self._table_pending():
+                return
             if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
                 if self._progressive is not None:
                     self._progressive.release()
                 s = self.settings
                 self._progressive = self.renderer.start_progressive(RenderSettings(**{**s.__dict__, "width": w, "height": h}))
             p = self._progressive
-            target = 1 if self.settings.mode == "point" else self.settings.samples
+            target = self.settings.samples if self.settings.mode == "fis" else 1
             if p.samples < target:
                 p.step(min(self.STEP_SAMPLES * (1 + p.steps), target - p.samples))
             fbo = self.framebuffer()

@@ -204,6 +204,7 @@ class MainWindow(QMainWindow):
         self.object_controls.open_environment.connect(self.open_environment_dialog)
         for view in (self.lobe_view, self.object_view):
             view.failed.connect(self.show_error)
+        self.object_view.busy.connect(lambda text: self.statusBar().showMessage(text, 0 if text else 1))
         f = self.fitting
         f.fit_requested.connect(self.start_fit)
         f.stop_requested.connect(self.stop_fit)
@@ -322,6 +323,8 @@ class MainWindow(QMainWindow):
         s.env_rotation = c.rotation.spin.value()
         s.light = c.light()
         v.exposure = c.exposure.spin.value()
+        order = c.sh_order.value()
+        v.when_ready(lambda: v.renderer.set_sh_order(order))
         v.reinhard = c.reinhard.isChecked()
         self._push_object_source()
 

@@ -255,7 +255,8 @@ class ObjectControls(QWidget):
     def __init__(self) -> None:
         super().__init__()
         self.mode = QComboBox()
-        self.mode.addItems(["fis", "point"])
+        self.mode.addItems(["fis", "point", "sh"])
+        self.sh_order = QSpinBox(minimum=1, maximum=10, value=5)
         self.samples = QSpinBox(minimum=1, maximum=4096, value=256)
         self.exposure = ParameterRow(-8.0, 8.0, 0.0)
         self.rotation = ParameterRow(0.0, 359.0, 0.0)
@@ -270,6 +271,7 @@ class ObjectControls(QWidget):
         form = QFormLayout(self)
         form.addRow("lighting", self.mode)
         form.addRow("samples", self.samples)
+        form.addRow("SH order", self.sh_order)
         form.addRow("exposure (EV)", self.exposure)
         form.addRow("environment rotation (°)", self.rotation)
         form.addRow("light θ (°)", self.light_theta)
@@ -281,6 +283,7 @@ class ObjectControls(QWidget):
         form.addRow(row)
         self.mode.currentIndexChanged.connect(lambda _: self.changed.emit())
         self.samples.valueChanged.connect(lambda _: self.changed.emit())
+        self.sh_order.valueChanged.connect(lambda _: self.changed.emit())
         self.show.currentIndexChanged.connect(lambda _: self.changed.emit())
         self.reinhard.toggled.connect(lambda _: self.changed.emit())
         for row_ in (self.exposure, self.rotation, self.light_theta, self.light_phi):

@@ -16,12 +16,13 @@ from ..envmap import EnvironmentMap
 from ..errors import BRDFLabError
 from ..material import AnalyticMaterial
 from ..measured import MeasuredTable, tabulate
+from ..proxy import proxy_lobes
 from ..mesh import Mesh
 from .camera import OrbitCamera, gl_matrix
 from .glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 from .sampling_sets import lobe_shares, sample_set
 
-MODES = ("point", "fis")
+MODES = ("point", "fis", "sh")
 BATCH = 32  # samples per draw: keeps each draw short on software rasterisers
 
 
@@ -43,21 +44,6 @@ def _set(program: moderngl.Program, name: str, value) -> None:
         program[name].value = value
 
 
-def proxy_lobes(table: MeasuredTable) -> AnalyticMaterial:
-    """A Lambertian + two Cook–Torrance fit of a measured table (Ngan metric, a stratified
-    subset): the distribution that importance-samples it (a sharp and a broad lobe, so that
-    glossy tails get samples too)."""
-    from ..fit import FitOptions, fit, material_from_lobes
-    from ..samples import samples_of
-
-    start = material_from_lobes(["Lambertian", "CookTorrance", "CookTorrance"], "Linear", 3)
-    start.lobes[1].params["m"], start.lobes[2].params["m"] = 0.05, 0.35
-    result = fit(start, samples_of(table, "subset", size=20_000), FitOptions(metric="Ngan", coarse_size=0, max_iterations=60))
-    for lobe in result.material.lobes:  # a lobe the fit switched off still deserves samples
-        lobe.scale = [max(s, 1e-6) for s in lobe.scale]
-    return result.material
-
-
 class ObjectRenderer:
     """Holds the GPU state of one object view: programs, mesh, environment, material."""
 
@@ -76,6 +62,13 @@ class ObjectRenderer:
         self.env_texture: moderngl.Texture | None = None
         self.env_size = (1, 1)
         self.camera = OrbitCamera()
+        self.model_rotation = np.eye(3)  # turns the object (meshes) in the world
+        self.sh_order = 5
+        self.sh_window: str | None = None
+        self.source = None
+        self.environment: EnvironmentMap | None = None
+        self._sh_state: tuple | None = None  # (order, table texture, rx texture, half, light)
+        self.clamped_pixels = 0
         self._empty_vao = ctx.vertex_array(self._program(("Lambertian",), "point", True), [])
 
     # --- state ----------------------------------------------------------------------------
@@ -91,6 +84,8 @@ class ObjectRenderer:
     def set_source(self, source) -> None:
         """Any source: analytic materials directly; measured ones as a table texture,
         importance-sampled through a fitted proxy (Lambertian + Cook–Torrance)."""
+        self.source = source
+        self._release_sh()
         if isinstance(source, AnalyticMaterial):
             self.set_material(source)
             return
@@ -128,13 +123,81 @@ class ObjectRenderer:
         tex.repeat_x, tex.repeat_y = True, False
         self.env_texture = tex
         self.env_size = (env.width, env.height)
+        self.environment = env
+        self._release_sh()
+
+    # --- spherical harmonics ------------------------------------------------------------------
+    def _release_sh(self) -> None:
+        if self._sh_state is not None:
+            for tex in self._sh_state[1:3]:
+                tex.release()
+        self._sh_state = None
+
+    def set_sh_order(self, order: int, window: str | None = None) -> None:
+        from .. import sh
+
+        sh.check_order(order)
+        if (order, window) != (self.sh_order, self.sh_window):
+            self.sh_order, self.sh_window = order, window
+            self._release_sh()
+
+    def _sh_resources(self, settings: RenderSettings):
+        """BRDF table, rotation matrices and lighting for the current order (built lazily)."""
+        from .. import sh
+        from ..sh_tables import cached_table
+
+        if self.environment is None:
+            raise BRDFLabError("no environment map for the spherical-harmonics mode")
+        order = self.sh_order
+        if self._sh_state is None or self._sh_state[0] != order:
+            self._release_sh()
+            source = self.source if self.source is not None else self.material
+            table = cached_table(source, order)
+            size = table.shape[0]
+            flat = table[..., :3].reshape(size, size, -1) if table.shape[-1] >= 3 else np.repeat(table, 3, -1).reshape(size, size, -1)
+            layers = (flat.shape[-1] + 3) // 4
+            packed = np.zeros((size, size, layers * 4), np.float32)
+            packed[..., : flat.shape[-1]] = flat
+            data = np.ascontiguousarray(packed.reshape(size, size, layers, 4).transpose(2, 0, 1, 3))
+            tex = self.ctx.texture_array((size, size, layers), 4, data.tobytes(), dtype="f4")
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+            blocks = []
+            for angle in (math.pi / 2, -math.pi / 2):
+                M = sh.rotation_matrix(sh.axis_rotation("x", angle), order)
+                blocks.append(np.concatenate([M[l * l:(l + 1) ** 2, l * l:(l + 1) ** 2].ravel() for l in range(1, order)]))
+            rx_data = np.concatenate(blocks).astype(np.float32)
+            rx = self.ctx.texture((len(rx_data), 1), 1, rx_data.tobytes(), dtype="f4")
+            rx.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            light = sh.project_environment(self.environment, order, self.sh_window)
+            self._sh_state = (order, tex, rx, len(blocks[0]), light)
+        return self._sh_state
+
+    def sh_table_ready(self) -> bool:
+        """Whether the SH mode can draw without building a table first."""
+        from ..sh_tables import is_cached
+
+        return self._sh_state is not None or is_cached(self.source if self.source is not None else self.material, self.sh_order)
+
+    def sh_lighting(self, settings: RenderSettings) -> np.ndarray:
+        """World-frame lighting coefficients, with the environment's rotation applied."""
+        from .. import sh
+
+        light = self._sh_resources(settings)[4]
+        if settings.env_rotation:
+            # the environment turned as in the FIS mode: L'(d) = L(Ry(θ) d)
+            light = sh.rotate(light, sh.axis_rotation("y", math.radians(settings.env_rotation)).T)
+        return light
 
     # --- programs -------------------------------------------------------------------------
     def _program(self, models: tuple[str, ...], mode: str, reference: bool, measured: bool = False) -> moderngl.Program:
-        key = (models, mode, reference, measured)
+        key = (models, mode, reference, measured, self.sh_order if mode == "sh" else 0)
         if key not in self._programs:
             defines = f"#define MODE_{mode.upper()}\n" + ("#define GEOMETRY_REFERENCE\n" if reference else "")
             material = material_source(models, measured)
+            if mode == "sh":
+                defines += f"#define SH_ORDER {self.sh_order}\n"
+                material += shader_source("sh.glsl")
             self._programs[key] = self.ctx.program(
                 vertex_shader=GLSL_VERSION + defines + shader_source("object_vertex.glsl"),
                 fragment_shader=GLSL_VERSION + defines + material + shader_source("object_fragment.glsl"),
@@ -156,7 +219,7 @@ class ObjectRenderer:
         if self.material is None:
             raise BRDFLabError("no material to render")
         if settings.mode not in MODES:
-            raise BRDFLabError(f"unknown lighting mode {settings.mode!r} (point or fis)")
+            raise BRDFLabError(f"unknown lighting mode {settings.mode!r} (point, fis or sh)")
         reference = settings.reference_view or self.mesh is None
         models = models_of(self.material)
         prog = self._program(models, settings.mode, reference, self.measured)
@@ -180,12 +243,23 @@ class ObjectRenderer:
             _set(prog, "u_sample_begin", sample_range[0])
             _set(prog, "u_sample_end", sample_range[1])
             _set(prog, "u_set_size", float(set_size))
+        if settings.mode == "sh":
+            order, table, rx, half, _ = self._sh_resources(settings)
+            table.use(3)
+            rx.use(4)
+            _set(prog, "u_sh_table", 3)
+            _set(prog, "u_sh_rx", 4)
+            _set(prog, "u_sh_rx_half", half)
+            if "u_sh_light" in prog:
+                prog["u_sh_light"].write(np.ascontiguousarray(self.sh_lighting(settings)[:, :3], np.float32).tobytes())
         if reference:
             self._empty_vao_for(prog).render(moderngl.TRIANGLES, vertices=3)
         else:
             aspect = settings.width / settings.height
             prog["u_view_projection"].write(gl_matrix(self.camera.projection(aspect) @ self.camera.view()))
-            prog["u_model"].write(gl_matrix(np.eye(4)))
+            model = np.eye(4)
+            model[:3, :3] = self.model_rotation
+            prog["u_model"].write(gl_matrix(model))
             _set(prog, "u_camera_position", tuple(float(x) for x in self.camera.position))
             _set(prog, "u_mesh_tangents", not self.material.isotropic)
             self._vao(prog, (models, settings.mode, self.measured)).render(moderngl.TRIANGLES)
@@ -255,7 +329,13 @@ class ObjectRenderer:
             fbo.release()
             color.release()
             depth.release()
-        return np.ascontiguousarray(img[::-1, :, :3] * scale)
+        out = np.ascontiguousarray(img[::-1, :, :3] * scale)
+        if settings.mode == "sh":
+            # ringing can make the truncated integral negative: clamp it, and say how often
+            negative = (out < 0).any(axis=2) & (img[::-1, :, 3] > 0)
+            self.clamped_pixels = int(negative.sum())
+            out = np.maximum(out, 0.0)
+        return out
 
 
 class Progressive:
@@ -282,7 +362,7 @@ class Progressive:
         ctx.viewport = (0, 0, s.width, s.height)
         reference = s.reference_view or r.mesh is None
         ctx.disable(moderngl.CULL_FACE)
-        if s.mode == "point":
+        if s.mode in ("point", "sh"):  # deterministic: one draw
             if self.steps == 0:
                 ctx.enable(moderngl.DEPTH_TEST) if not reference else ctx.disable(moderngl.DEPTH_TEST)
                 ctx.depth_func = "<"

@@ -1,0 +1,25 @@
+"""Analytic stand-ins that importance-sample sources which have no sampler of their own."""
+
+from __future__ import annotations
+
+from .material import AnalyticMaterial
+
+
+def proxy_lobes(source) -> AnalyticMaterial:
+    """A Lambertian + two Cook–Torrance fit (Ngan metric, a stratified subset): the
+    distribution that importance-samples a measured source (a sharp and a broad lobe,
+    so that glossy tails get samples too). Analytic materials are their own proxy."""
+    from .fit import FitOptions, fit, material_from_lobes
+    from .measured import MeasuredTable, tabulate
+    from .samples import samples_of
+
+    if isinstance(source, AnalyticMaterial):
+        return source
+    table = source if isinstance(source, MeasuredTable) else tabulate(source, phi_d_samples=1)
+    start = material_from_lobes(["Lambertian", "CookTorrance", "CookTorrance"], "Linear", table.n_channels)
+    start.lobes[1].params["m"], start.lobes[2].params["m"] = 0.05, 0.35
+    result = fit(start, samples_of(table, "subset", size=20_000),
+                 FitOptions(metric="Ngan", coarse_size=0, max_iterations=60))
+    for lobe in result.material.lobes:  # a lobe the fit switched off still deserves samples
+        lobe.scale = [max(s, 1e-6) for s in lobe.scale]
+    return result.material

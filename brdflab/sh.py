@@ -1,0 +1,190 @@
+"""Real spherical harmonics for lighting (Kautz, Sloan & Snyder 2002).
+
+Order L means L bands and L² coefficients; coefficient i = l² + l + m. The basis is the
+real, orthonormal one with the Condon–Shortley phase:
+y_l^m = √2 K_l^m cos(mφ) P_l^m(cos θ) (m > 0), √2 K_l^|m| sin(|m|φ) P_l^|m|(cos θ) (m < 0),
+K_l^0 P_l^0 (m = 0), in whatever Cartesian frame the directions are given.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from .errors import BRDFLabError
+
+MAX_ORDER = 16
+
+
+def check_order(order: int) -> int:
+    if not isinstance(order, (int, np.integer)) or not 1 <= order <= MAX_ORDER:
+        raise BRDFLabError(f"SH order {order} is outside 1..{MAX_ORDER}")
+    return int(order)
+
+
+def index(l: int, m: int) -> int:
+    return l * l + l + m
+
+
+@lru_cache(maxsize=None)
+def _norms(order: int) -> np.ndarray:
+    k = np.zeros((order, order))
+    for l in range(order):
+        for m in range(l + 1):
+            k[l, m] = math.sqrt((2 * l + 1) / (4 * math.pi) * math.factorial(l - m) / math.factorial(l + m))
+    return k
+
+
+def basis(order: int, d: np.ndarray) -> np.ndarray:
+    """SH basis at unit directions d (..., 3) → (..., order²)."""
+    order = check_order(order)
+    d = np.asarray(d, float)
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    shape = d.shape[:-1]
+    out = np.empty(shape + (order * order,))
+    k = _norms(order)
+    # C_m + i S_m = (x + i y)^m = sin^m θ e^{imφ}; Q_l^m = P_l^m / sin^m θ (a polynomial in z)
+    c_prev, s_prev = np.ones(shape), np.zeros(shape)
+    q_mm = np.ones(shape)
+    for m in range(order):
+        if m > 0:
+            c_prev, s_prev = c_prev * x - s_prev * y, c_prev * y + s_prev * x
+            q_mm = q_mm * (-(2 * m - 1))
+        q_lm2, q_lm1 = None, q_mm
+        for l in range(m, order):
+            if l == m:
+                q = q_mm
+            elif l == m + 1:
+                q = z * (2 * m + 1) * q_mm
+            else:
+                q = ((2 * l - 1) * z * q_lm1 - (l + m - 1) * q_lm2) / (l - m)
+            if l > m:
+                q_lm2, q_lm1 = q_lm1, q
+            if m == 0:
+                out[..., index(l, 0)] = k[l, 0] * q
+            else:
+                out[..., index(l, m)] = math.sqrt(2.0) * k[l, m] * q * c_prev
+                out[..., index(l, -m)] = math.sqrt(2.0) * k[l, m] * q * s_prev
+    return out
+
+
+def window(order: int, kind: str | None) -> np.ndarray:
+    """Per-coefficient damping against ringing: None, 'hanning' or 'lanczos'."""
+    l = np.repeat(np.arange(order), 2 * np.arange(order) + 1).astype(float)
+    if kind in (None, "none"):
+        return np.ones_like(l)
+    if kind == "hanning":
+        return 0.5 * (1.0 + np.cos(np.pi * l / order))
+    if kind == "lanczos":
+        return np.sinc(l / order)
+    raise BRDFLabError(f"unknown SH window {kind!r} (none, hanning or lanczos)")
+
+
+def project_environment(env, order: int, window_kind: str | None = None, rows: int = 32) -> np.ndarray:
+    """SH coefficients (order², 3) of a lat-long map (world frame): each texel's radiance
+    times the basis integrated over the texel (2 × 2 Gauss points in cos θ and φ)."""
+    order = check_order(order)
+    h, w = env.height, env.width
+    g = np.array([-1.0, 1.0]) / math.sqrt(3.0)
+    out = np.zeros((order * order, env.data.shape[2]))
+    phi_edges = np.linspace(0.0, 2.0 * math.pi, w + 1)
+    phi = 0.5 * (phi_edges[:-1, None] + phi_edges[1:, None]) + 0.5 * (phi_edges[1] - phi_edges[0]) * g[None, :]
+    for r0 in range(0, h, rows):
+        r = np.arange(r0, min(h, r0 + rows))
+        z0, z1 = np.cos(math.pi * r / h), np.cos(math.pi * (r + 1) / h)
+        z = 0.5 * (z0[:, None] + z1[:, None]) + 0.5 * (z1 - z0)[:, None] * g[None, :]  # (rows, 2)
+        weight = (0.5 * np.abs(z0 - z1))[:, None, None, None] * (0.5 * (phi_edges[1] - phi_edges[0]))
+        st = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+        # world direction of (θ, φ) as in texel_directions: (sin θ sin φ', cos θ, −sin θ cos φ'), φ' = φ − π
+        pp = phi - math.pi
+        d = np.stack(np.broadcast_arrays(st[:, None, :, None] * np.sin(pp)[None, :, None, :], z[:, None, :, None],
+                                         -st[:, None, :, None] * np.cos(pp)[None, :, None, :]), axis=-1)
+        Y = basis(order, d)  # (rows, w, 2, 2, n)
+        integrated = (Y * weight[..., None]).sum(axis=(2, 3))  # (rows, w, n)
+        out += np.einsum("rwn,rwc->nc", integrated, env.data[r].astype(float))
+    return out * window(order, window_kind)[:, None]
+
+
+def legendre(l_max: int, x: float) -> np.ndarray:
+    p = np.zeros(l_max + 2)
+    p[0] = 1.0
+    if l_max + 1 >= 1:
+        p[1] = x
+    for l in range(2, l_max + 2):
+        p[l] = ((2 * l - 1) * x * p[l - 1] - (l - 1) * p[l - 2]) / l
+    return p
+
+
+def disk_light(direction, solid_angle: float, radiance, order: int) -> np.ndarray:
+    """A circular light of constant radiance: its zonal harmonics in closed form
+    (∫_{cos α}^1 P_l = (P_{l−1}(cos α) − P_{l+1}(cos α))/(2l + 1)), rotated to `direction`."""
+    order = check_order(order)
+    if not 0.0 < solid_angle <= 4.0 * math.pi:
+        raise BRDFLabError(f"solid angle {solid_angle} must be in (0, 4π]")
+    c = 1.0 - solid_angle / (2.0 * math.pi)  # cos of the half-angle
+    p = legendre(order, c)
+    z = np.array([2 * math.pi * math.sqrt((2 * l + 1) / (4 * math.pi)) * ((1.0 - c) if l == 0 else (p[l - 1] - p[l + 1]) / (2 * l + 1))
+                  for l in range(order)])
+    d = np.asarray(direction, float)
+    d = d / np.linalg.norm(d)
+    y = basis(order, d)
+    l_of = np.repeat(np.arange(order), 2 * np.arange(order) + 1)
+    coeff = np.sqrt(4 * math.pi / (2 * l_of + 1)) * z[l_of] * y
+    return coeff[:, None] * np.asarray(radiance, float).reshape(1, -1)
+
+
+def evaluate(coefficients: np.ndarray, d: np.ndarray) -> np.ndarray:
+    order = int(round(math.sqrt(coefficients.shape[0])))
+    return basis(order, d) @ coefficients
+
+
+# --- rotation ----------------------------------------------------------------------------------
+
+@lru_cache(maxsize=4)
+def _fit_directions(n: int = 400) -> np.ndarray:
+    """Fibonacci directions: a well-conditioned set for fitting band rotations."""
+    i = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * i / n
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))
+    r = np.sqrt(1.0 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def rotation_matrix(R: np.ndarray, order: int) -> np.ndarray:
+    """M (order² × order²) with coefficients(f ∘ R⁻¹) = M · coefficients(f): exact for any
+    order, since each band is closed under rotation (solved band by band from samples)."""
+    order = check_order(order)
+    R = np.asarray(R, float)
+    d = _fit_directions(max(400, 4 * order * order))
+    A = basis(order, d)
+    B = basis(order, d @ R)  # rows: R⁻¹ ω = Rᵀ ω
+    M = np.zeros((order * order, order * order))
+    for l in range(order):
+        s = slice(l * l, (l + 1) * (l + 1))
+        M[s, s] = np.linalg.lstsq(A[:, s], B[:, s], rcond=None)[0]
+    return M
+
+
+def rotate(coefficients: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Coefficients of the function turned by R (g(ω) = f(R⁻¹ ω))."""
+    order = int(round(math.sqrt(coefficients.shape[0])))
+    return rotation_matrix(R, order) @ coefficients
+
+
+def axis_rotation(axis: str, angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    if axis == "x":
+        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == "y":
+        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def zyz_angles(R: np.ndarray) -> tuple[float, float, float]:
+    """α, β, γ with R = Rz(α) Ry(β) Rz(γ)."""
+    beta = math.acos(max(-1.0, min(1.0, R[2, 2])))
+    if abs(math.sin(beta)) < 1e-9:
+        return math.atan2(R[1, 0], R[0, 0]) if R[2, 2] > 0 else math.atan2(-R[1, 0], -R[0, 0]), beta, 0.0
+    return math.atan2(R[1, 2], R[0, 2]), beta, math.atan2(R[2, 1], -R[2, 0])

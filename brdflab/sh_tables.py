@@ -1,0 +1,118 @@
+"""BRDF product tables c_i(v) = ∫ y_i(s) f(s, v) max(0, s_z) ds over a parabolic map of
+view directions v (Kautz et al. 2002), per channel, for any source.
+
+The integrals are importance-sampled: samples are drawn from the material's own lobes
+(measured sources: from a fitted proxy) as a mixture, weighted by the balance heuristic,
+with one scrambled Sobol' set shared by all views. Results are cached per material.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from scipy.stats import qmc
+
+from . import sh
+from .errors import BRDFLabError
+from .material import AnalyticMaterial
+from .proxy import proxy_lobes
+
+DEFAULT_SIZE = 128
+
+
+def parabolic_views(size: int) -> tuple[np.ndarray, np.ndarray]:
+    """View direction of each texel (size, size, 3), row = y, column = x, and whether the
+    texel lies inside the unit disk (outside texels repeat the rim, for filtering)."""
+    c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    px, py = np.meshgrid(c, c)
+    r2 = px * px + py * py
+    inside = r2 <= 1.0
+    scale = np.where(inside, 1.0, 0.999 / np.sqrt(np.maximum(r2, 1e-12)))
+    px, py = px * scale, py * scale
+    r2 = px * px + py * py
+    v = np.stack([2 * px, 2 * py, 1.0 - r2], axis=-1) / (1.0 + r2)[..., None]
+    return v, inside
+
+
+@lru_cache(maxsize=4)
+def _sobol(n_log2: int) -> np.ndarray:
+    return qmc.Sobol(d=2, scramble=True, seed=11).random_base2(n_log2)
+
+
+def _mixture(proxy: AnalyticMaterial, n: int):
+    """Per-sample lobe index (stratified by the lobes' shares) and the shares."""
+    from .render.sampling_sets import lobe_shares
+
+    shares = lobe_shares(proxy, floor=0.05)
+    counts = np.maximum(np.round(shares * n).astype(int), 1)
+    counts[np.argmax(counts)] += n - counts.sum()
+    lobe_of = np.repeat(np.arange(len(counts)), counts)
+    return lobe_of, counts / n
+
+
+def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int = 8, chunk: int = 512) -> np.ndarray:
+    """c (size, size, order², C) for every texel of the parabolic view map."""
+    order = sh.check_order(order)
+    views, _ = parabolic_views(size)
+    views = views.reshape(-1, 3)
+    proxy = proxy_lobes(source)
+    if not proxy.lobes:
+        raise BRDFLabError("the material has no lobes to tabulate")
+    u = _sobol(samples_log2)
+    n = len(u)
+    lobe_of, fractions = _mixture(proxy, n)
+    n_ch = source.n_channels
+    out = np.zeros((len(views), order * order, n_ch))
+    for start in range(0, len(views), chunk):
+        v = views[start:start + chunk]
+        wo = np.broadcast_to(v[:, None, :], (len(v), n, 3))
+        wi = np.empty((len(v), n, 3))
+        for k, lobe in enumerate(proxy.lobes):
+            sel = lobe_of == k
+            model = lobe.model
+            if model.samplable:
+                wi[:, sel] = model.sample(wo[:, sel], u[sel][None], lobe.params)
+            else:
+                from .sampling import cosine_hemisphere
+
+                wi[:, sel] = cosine_hemisphere(np.broadcast_to(u[sel][None], (len(v), sel.sum(), 2)))
+        pdf = np.zeros((len(v), n))
+        for k, lobe in enumerate(proxy.lobes):
+            model = lobe.model
+            if model.samplable:
+                pdf += fractions[k] * model.pdf(wi, wo, lobe.params)
+            else:
+                pdf += fractions[k] * np.maximum(wi[..., 2], 0.0) / np.pi
+        f = source.evaluate(wi.reshape(-1, 3), wo.reshape(-1, 3)).reshape(len(v), n, n_ch)
+        weight = np.where(pdf > 0, np.maximum(wi[..., 2], 0.0) / np.where(pdf > 0, pdf, 1.0), 0.0) / n
+        Y = sh.basis(order, wi)
+        out[start:start + chunk] = np.einsum("vkn,vkc->vnc", Y, f * weight[..., None])
+    if not np.all(np.isfinite(out)):
+        raise BRDFLabError("the BRDF table has non-finite values (check the material's parameters)")
+    return out.reshape(size, size, order * order, n_ch)
+
+
+_CACHE: dict = {}
+
+
+def cached_table(source, order: int, size: int = DEFAULT_SIZE) -> np.ndarray:
+    """brdf_table, remembered per (material description, order, size)."""
+    key = (_identity(source), order, size)
+    if key not in _CACHE:
+        if len(_CACHE) > 8:
+            _CACHE.pop(next(iter(_CACHE)))
+        _CACHE[key] = brdf_table(source, order, size)
+    return _CACHE[key]
+
+
+def is_cached(source, order: int, size: int = DEFAULT_SIZE) -> bool:
+    return (_identity(source), order, size) in _CACHE
+
+
+def _identity(source):
+    if isinstance(source, AnalyticMaterial):
+        import json
+
+        return json.dumps(source.describe(), sort_keys=True)
+    return ("object", id(source))

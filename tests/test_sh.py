@@ -1,0 +1,174 @@
+"""Spherical harmonics: basis, projection, rotation, disk lights, tables and renders."""
+
+import math
+
+import numpy as np
+import pytest
+
+from brdflab import sh
+from brdflab.envmap import EnvironmentMap, load_environment
+from brdflab.errors import BRDFLabError
+from brdflab.material import AnalyticMaterial, Lobe
+from brdflab.reference_view import environment_image, relative_rmse, sphere_view
+from brdflab.render.object_view import ObjectRenderer, RenderSettings
+from brdflab.sh_tables import brdf_table
+from conftest import DATA, needs_shared
+
+
+def sphere_quadrature(n_theta=48, n_phi=96):
+    x, w = np.polynomial.legendre.leggauss(n_theta)
+    phi = (np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi
+    z, p = np.meshgrid(x, phi, indexing="ij")
+    s = np.sqrt(1 - z**2)
+    d = np.stack([s * np.cos(p), s * np.sin(p), z], -1).reshape(-1, 3)
+    return d, np.repeat(w, n_phi) * 2 * np.pi / n_phi
+
+
+def random_rotation(rng):
+    q = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    return q * np.sign(np.linalg.det(q))
+
+
+def test_orthonormal_to_order_12_by_quadrature():
+    d, w = sphere_quadrature()
+    Y = sh.basis(12, d)
+    np.testing.assert_allclose((Y * w[:, None]).T @ Y, np.eye(144), atol=1e-10)
+
+
+def test_known_values():
+    z = np.array([0.0, 0.0, 1.0])
+    y = sh.basis(3, z)
+    assert y[0] == pytest.approx(0.5 / math.sqrt(math.pi))
+    assert y[2] == pytest.approx(math.sqrt(3 / (4 * math.pi)))
+    assert y[6] == pytest.approx(math.sqrt(5 / (16 * math.pi)) * 2)
+
+
+def test_rotation_is_exact_against_projecting_the_rotated_function():
+    rng = np.random.default_rng(3)
+    d, w = sphere_quadrature(64, 128)
+    order = 10
+    c = rng.normal(size=(order * order, 3))
+    R = random_rotation(rng)
+    rotated_function = sh.evaluate(c, d @ R)  # f(R⁻¹ ω)
+    projected = sh.basis(order, d).T @ (rotated_function * w[:, None])
+    np.testing.assert_allclose(sh.rotate(c, R), projected, atol=1e-9)
+
+
+def test_rotations_compose_and_decompose():
+    rng = np.random.default_rng(4)
+    A, B = random_rotation(rng), random_rotation(rng)
+    M = lambda R: sh.rotation_matrix(R, 6)
+    np.testing.assert_allclose(M(A @ B), M(A) @ M(B), atol=1e-10)
+    a, b, g = sh.zyz_angles(A)
+    decomposed = (M(sh.axis_rotation("z", a)) @ M(sh.axis_rotation("x", -np.pi / 2)) @ M(sh.axis_rotation("z", b))
+                  @ M(sh.axis_rotation("x", np.pi / 2)) @ M(sh.axis_rotation("z", g)))
+    np.testing.assert_allclose(decomposed, M(A), atol=1e-10)
+
+
+def test_disk_light_closed_form_matches_projection():
+    d, w = sphere_quadrature(200, 400)
+    direction = np.array([0.3, 0.5, 0.8])
+    direction /= np.linalg.norm(direction)
+    omega = 0.4
+    inside = d @ direction >= 1 - omega / (2 * np.pi)
+    numeric = sh.basis(6, d).T @ (inside * w * 2.0)
+    np.testing.assert_allclose(sh.disk_light(direction, omega, [2.0], 6)[:, 0], numeric, atol=3e-3)
+
+
+def test_windowing_reduces_ringing():
+    c = sh.disk_light([0, 0, 1], 0.05, [1.0], 8)
+    d, _ = sphere_quadrature()
+    raw = sh.evaluate(c, d).min()
+    smooth = sh.evaluate(c * sh.window(8, "hanning")[:, None], d).min()
+    assert raw < 0 and smooth > raw
+
+
+def test_projection_of_a_constant_map():
+    env = EnvironmentMap(np.ones((32, 64, 3), np.float32))
+    c = sh.project_environment(env, 4)
+    assert c[0, 0] == pytest.approx(2 * math.sqrt(math.pi), rel=1e-6)
+    assert np.abs(c[1:]).max() < 1e-5
+
+
+def test_bad_orders_and_tables():
+    with pytest.raises(BRDFLabError, match="outside 1..16"):
+        sh.basis(17, np.array([0, 0, 1.0]))
+    with pytest.raises(BRDFLabError):
+        sh.window(4, "gaussian")
+    material = AnalyticMaterial("m", "Linear", 1, [Lobe.create("Lambertian", [1.0])])
+    material.lobes[0].scale = [float("nan")]
+    with pytest.raises(BRDFLabError, match="non-finite"):
+        brdf_table(material, 3, 8)
+
+
+def test_lambertian_table_is_the_clamped_cosine():
+    table = brdf_table(AnalyticMaterial("d", "Linear", 1, [Lobe.create("Lambertian", [1 / math.pi])]), 3, 8)
+    expected = np.zeros(9)
+    expected[0], expected[2], expected[6] = 0.5 / math.sqrt(math.pi), math.sqrt(3 / (4 * math.pi)) * 2 / 3, math.sqrt(5 / (16 * math.pi)) / 2
+    np.testing.assert_allclose(table[4, 4, :, 0], expected, atol=2e-3)
+
+
+@pytest.fixture(scope="module")
+def renderer():
+    from brdflab.render.context import create_context
+
+    return ObjectRenderer(create_context())
+
+
+@needs_shared("envmaps", "venice_sunset_1k.hdr")
+@pytest.mark.parametrize("name, material", [
+    ("diffuse", AnalyticMaterial("d", "Linear", 3, [Lobe.create("Lambertian", [0.25, 0.2, 0.15])])),
+    ("glossy", AnalyticMaterial("g", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
+                                                   Lobe.create("BlinnPhong", [0.3] * 3, Exponent=20.0)])),
+])
+def test_sh_render_converges_to_quadrature(renderer, name, material):
+    env = load_environment(DATA / "envmaps" / "venice_sunset_1k.hdr").downsampled(128, 64)
+    renderer.set_environment(env)
+    renderer.set_source(material)
+    ref = environment_image(material, env, 40, 40)
+    inside = sphere_view(40, 40).inside
+    errors = []
+    for order in (2, 3, 5):
+        renderer.set_sh_order(order)
+        errors.append(relative_rmse(renderer.render(RenderSettings("sh", 40, 40)), ref, inside))
+    assert errors[2] < 0.05
+    assert errors[2] < errors[0] and errors[2] <= errors[1] * 1.05
+
+
+def test_rotating_the_lighting_equals_rotating_object_and_camera(renderer):
+    from brdflab.mesh import default_mesh
+
+    env = load_environment(DATA / "envmaps" / "venice_sunset_1k.hdr") if (DATA / "envmaps").exists() else None
+    if env is None:
+        from brdflab.resources import data_dir
+
+        env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr")
+    renderer.set_environment(env.downsampled(128, 64))
+    renderer.set_source(AnalyticMaterial("a", "Linear", 3, [Lobe.create("Lambertian", [0.1] * 3),
+                                                            Lobe.create("Ward", [0.5] * 3, ax=0.15, ay=0.4)]))
+    renderer.set_sh_order(4)
+    renderer.set_mesh(default_mesh("meshes/spot.obj"))
+    settings = RenderSettings("sh", 96, 96, reference_view=False)
+    yaw = renderer.camera.yaw
+    renderer.camera.yaw = yaw + 40.0
+    renderer.model_rotation = np.asarray(sh.axis_rotation("y", math.radians(40.0)))
+    turned_object = renderer.render(settings)
+    renderer.camera.yaw = yaw
+    renderer.model_rotation = np.eye(3)
+    turned_light = renderer.render(RenderSettings("sh", 96, 96, reference_view=False, env_rotation=40.0))
+    renderer.set_mesh(None)
+    mask = (turned_object.sum(axis=2) > 0) & (turned_light.sum(axis=2) > 0)
+    assert mask.sum() > 1000
+    assert relative_rmse(turned_object, turned_light, mask) < 0.01
+
+
+def test_ringing_is_clamped_and_reported(renderer):
+    from brdflab.envmap import constant
+
+    env = constant(0.0, 64, 32)
+    env.data[10:12, 30:32] = 5000.0  # a tiny, very bright light
+    renderer.set_environment(env)
+    renderer.set_source(AnalyticMaterial("g", "Linear", 3, [Lobe.create("Phong", [1.0] * 3, Exponent=200.0)]))
+    renderer.set_sh_order(6)
+    img = renderer.render(RenderSettings("sh", 48, 48))
+    assert renderer.clamped_pixels > 0 and img.min() >= 0.0
