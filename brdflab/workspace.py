@@ -31,6 +31,7 @@ class Workspace:
     path: Path | None = None
     source: object | None = None  # the measured data of a measured document
     shown_fit: int | None = None
+    guess: AnalyticMaterial | None = None  # the next fit's initial guess (measured documents)
     dirty: bool = False
     messages: list[str] = field(default_factory=list)
 
@@ -84,6 +85,11 @@ class Workspace:
         """The source every view shows as 'original': the analytic material or the data."""
         return self.analytic if self.analytic is not None else self.source
 
+    def editable(self) -> AnalyticMaterial | None:
+        """What the material editor edits: the analytic material, or for measured data the
+        initial guess of the next fit."""
+        return self.analytic if self.analytic is not None else self.guess
+
     def fitted(self) -> AnalyticMaterial | None:
         if self.shown_fit is None or not (0 <= self.shown_fit < len(self.document.fittings)):
             return None
@@ -91,7 +97,11 @@ class Workspace:
 
     # --- edits (each replaces whole values, so undo can swap them back) -----------------------------
     def replace_material(self, material: AnalyticMaterial) -> None:
+        """Replace what the editor edits (the guess of a measured document is not saved)."""
         material.validate()
+        if self.analytic is None:
+            self.guess = material
+            return
         self.document.material = material
         self.dirty = True
 

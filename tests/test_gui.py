@@ -85,7 +85,12 @@ def test_open_measured_fit_and_cancel(window, qtbot, tmp_path):
     write_merl_binary(tabulate(truth), path)
     assert window.open_path(path)
     assert window.workspace.analytic is None and window.workspace.source is not None
-    assert not window.editor.isEnabled()
+    # the editor now edits the next fit's initial guess, drawn over the measured original
+    window.fitting.lobes.setCurrentText("Lambertian,CookTorrance")
+    assert [l.model.name for l in window.workspace.guess.lobes] == ["Lambertian", "CookTorrance"]
+    window.editor.parameter_edited.emit(1, "m", 0.25)
+    assert window.workspace.guess.lobes[1].params["m"] == 0.25
+    assert window.lobe_view.viewer._layers[1].source is window.workspace.guess
 
     # a fit that is stopped keeps the best so far
     window.fitting.lobes.setCurrentText("Lambertian,CookTorrance")
@@ -110,10 +115,13 @@ def test_open_measured_fit_and_cancel(window, qtbot, tmp_path):
 
 
 def test_switch_lighting_modes(window, qtbot):
-    for mode in ("point", "fis"):
+    window.object_controls.sh_order.setValue(3)
+    for mode in ("point", "fis", "sh"):
         window.object_controls.mode.setCurrentText(mode)
         assert window.object_view.settings.mode == mode
-        qtbot.waitUntil(lambda: window.object_view.samples_done >= 1, timeout=20000)
+        qtbot.waitUntil(lambda: window.object_view.samples_done >= 1, timeout=60000)
+    img = window.object_view.grabFramebuffer()
+    assert not img.isNull()
 
 
 def test_corrupt_files_give_an_error_not_a_crash(window, tmp_path):

@@ -6,7 +6,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import moderngl
 from PySide6.QtCore import QPointF, Qt, QTimer, Signal
-from PySide6.QtGui import QSurfaceFormat
+from PySide6.QtGui import QOpenGLContext, QSurfaceFormat
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
 
 from ..errors import BRDFLabError
@@ -98,13 +98,17 @@ class LobeView(_GLView):
         return self.viewer.camera
 
     def when_ready(self, fn) -> None:
-        """Run fn now if GL is initialised, else right after initialisation."""
+        """Run fn now if GL is initialised, else right after initialisation. Inside
+        initializeGL/paintGL the context is already current and must stay so."""
         if self.ctx is not None:
-            self.makeCurrent()
-            try:
+            if QOpenGLContext.currentContext() is self.context():
                 fn()
-            finally:
-                self.doneCurrent()
+            else:
+                self.makeCurrent()
+                try:
+                    fn()
+                finally:
+                    self.doneCurrent()
             self.update()
         else:
             self._pending = getattr(self, "_pending", [])
@@ -149,7 +153,7 @@ class ObjectView(_GLView):
         self._progressive = None
         self._timer = QTimer(self)
         self._timer.setInterval(0)
-        self._timer.timeout.connect(self.update)
+        self._timer.timeout.connect(self._refine)
 
     def setup(self) -> None:
         self.renderer = ObjectRenderer(self.ctx)
@@ -167,10 +171,9 @@ class ObjectView(_GLView):
     def restart(self) -> None:
         """Something changed: throw the accumulated samples away."""
         if self._progressive is not None and self.ctx is not None:
-            self.makeCurrent()
-            self._progressive.release()
-            self.doneCurrent()
+            self.when_ready(self._progressive.release)
         self._progressive = None
+        self._timer.start()
         self.update()
 
     view_changed = restart
@@ -191,17 +194,20 @@ class ObjectView(_GLView):
             self._table_job = self._pool.submit(cached_table, source, r.sh_order)
             self.busy.emit(f"building the order-{r.sh_order} SH table…")
         if not self._table_job.done():
-            QTimer.singleShot(100, self.update)
+            QTimer.singleShot(100, self._refine)
             return True
         job, self._table_job = self._table_job, None
         self.busy.emit("")
         job.result()  # re-raises a failed build here, where it is reported
         return False
 
-    def paintGL(self) -> None:
+    def _refine(self) -> None:
+        """Render more samples, outside paint events (Qt's paint-time GL state is not
+        moderngl's), then ask for a repaint that only displays the image."""
         if self.ctx is None or getattr(self.renderer, "material", None) is None:
             return
         w, h = self.pixel_size()
+        self.makeCurrent()
         try:
             if self._table_pending():
                 return
@@ -214,19 +220,32 @@ class ObjectView(_GLView):
             target = self.settings.samples if self.settings.mode == "fis" else 1
             if p.samples < target:
                 p.step(min(self.STEP_SAMPLES * (1 + p.steps), target - p.samples))
-            fbo = self.framebuffer()
-            fbo.use()
-            self.ctx.viewport = (0, 0, w, h)
-            self.display.draw(p, self.exposure, self.reinhard)
-            if p.samples < target:
                 self._timer.start()
             else:
                 self._timer.stop()
         except BRDFLabError as e:
             self._timer.stop()
             self.failed.emit(str(e))
+        finally:
+            self.doneCurrent()
+        self.update()
+
+    def paintGL(self) -> None:
+        if self.ctx is None:
+            return
+        fbo = self.framebuffer()
+        fbo.use()
+        w, h = self.pixel_size()
+        self.ctx.viewport = (0, 0, w, h)
+        if self._progressive is None or self._progressive.samples == 0:
+            fbo.clear(0.12, 0.12, 0.14, 1.0)
+            if not self._timer.isActive():
+                self._timer.start()
+            return
+        self.display.draw(self._progressive, self.exposure, self.reinhard)
 
     def resizeGL(self, w: int, h: int) -> None:
         if self._progressive is not None:
             self._progressive.release()  # the context is current during resizeGL
         self._progressive = None
+        self._timer.start()

@@ -188,15 +188,15 @@ class MainWindow(QMainWindow):
 
     def _connect(self) -> None:
         e = self.editor
-        e.parameter_edited.connect(lambda k, n, v: self._edit(ws_ops.with_parameter(self.workspace.analytic, k, n, v),
+        e.parameter_edited.connect(lambda k, n, v: self._edit(ws_ops.with_parameter(self.workspace.editable(), k, n, v),
                                                               f"Set {n}", (k, n)))
-        e.scale_edited.connect(lambda k, c, v: self._edit(ws_ops.with_scale(self.workspace.analytic, k, c, v),
+        e.scale_edited.connect(lambda k, c, v: self._edit(ws_ops.with_scale(self.workspace.editable(), k, c, v),
                                                           "Set scale", (k, "scale", c)))
-        e.lobe_added.connect(lambda m: self._edit(ws_ops.with_lobe_added(self.workspace.analytic, m), f"Add {m} lobe"))
-        e.lobe_removed.connect(lambda k: self._edit(ws_ops.with_lobe_removed(self.workspace.analytic, k), "Remove lobe"))
-        e.lobe_moved.connect(lambda k, d: self._edit(ws_ops.with_lobe_moved(self.workspace.analytic, k, d), "Move lobe"))
-        e.combination_changed.connect(lambda c: self._edit(ws_ops.with_combination(self.workspace.analytic, c), f"{c} combination"))
-        e.channels_changed.connect(lambda n: self._edit(ws_ops.with_channels(self.workspace.analytic, n), "Channels"))
+        e.lobe_added.connect(lambda m: self._edit(ws_ops.with_lobe_added(self.workspace.editable(), m), f"Add {m} lobe"))
+        e.lobe_removed.connect(lambda k: self._edit(ws_ops.with_lobe_removed(self.workspace.editable(), k), "Remove lobe"))
+        e.lobe_moved.connect(lambda k, d: self._edit(ws_ops.with_lobe_moved(self.workspace.editable(), k, d), "Move lobe"))
+        e.combination_changed.connect(lambda c: self._edit(ws_ops.with_combination(self.workspace.editable(), c), f"{c} combination"))
+        e.channels_changed.connect(lambda n: self._edit(ws_ops.with_channels(self.workspace.editable(), n), "Channels"))
         self.lobe_controls.changed.connect(self._lobe_settings_changed)
         self.lobe_view.incident_changed.connect(self._drag_incident)
         self.object_controls.changed.connect(self._object_settings_changed)
@@ -211,6 +211,8 @@ class MainWindow(QMainWindow):
         f.fit_selected.connect(self._select_fit)
         f.refit_requested.connect(self._refit)
         f.promote_requested.connect(self._promote)
+        f.lobes.currentTextChanged.connect(lambda _: self._guess_lobes_changed())
+        f.strategy.currentTextChanged.connect(lambda _: self._guess_lobes_changed())
 
     def _default_scene(self) -> None:
         try:
@@ -231,7 +233,11 @@ class MainWindow(QMainWindow):
 
     def material_changed(self) -> None:
         ws = self.workspace
-        self.editor.show_material(ws.analytic)
+        if ws.analytic is None and ws.guess is None and ws.source is not None:
+            self._new_guess()
+        self.editor.show_material(ws.editable())
+        self.editor.setToolTip("" if ws.analytic is not None else
+                               "Measured material: you are editing the initial guess of the next fit")
         self._push_lobe_sources()
         self._push_object_source()
         self._refresh_text()
@@ -264,17 +270,42 @@ class MainWindow(QMainWindow):
         self.setWindowTitle(f"{self.workspace.title} — BRDFLab")
 
     def _edit(self, new_material, text: str, merge_key=None) -> None:
-        if self.workspace.analytic is None:
+        if self.workspace.editable() is None:
             return
         try:
             new_material.validate()
         except BRDFLabError as e:
             self.show_error(str(e))
             return
-        self.undo_stack.push(ReplaceMaterial(self, self.workspace.analytic, new_material, text, merge_key))
+        self.undo_stack.push(ReplaceMaterial(self, self.workspace.editable(), new_material, text, merge_key))
+
+    def _new_guess(self) -> None:
+        """A fresh initial guess from the Fitting panel's lobes and strategy."""
+        ws = self.workspace
+        if ws.analytic is not None or ws.source is None:
+            return
+        lobes = [x.strip() for x in self.fitting.lobes.currentText().split(",") if x.strip()]
+        try:
+            ws.guess = material_from_lobes(lobes, self.fitting.strategy.currentText(), ws.source.n_channels)
+        except BRDFLabError as e:
+            self.show_error(str(e))
+
+    def _guess_lobes_changed(self) -> None:
+        if self.workspace.analytic is None:
+            self._new_guess()
+            self.editor.show_material(self.workspace.editable())
+            self._push_lobe_sources()
+
+    def _shown_fit_or_guess(self):
+        ws = self.workspace
+        if self._candidate is not None:
+            return self._candidate
+        if ws.analytic is None and (ws.shown_fit is None or self.fitting.fits.currentRow() < 0):
+            return ws.guess  # the initial guess, drawn over the measured original
+        return ws.fitted()
 
     def _push_lobe_sources(self) -> None:
-        original, fitted = self.workspace.original(), self._candidate or self.workspace.fitted()
+        original, fitted = self.workspace.original(), self._shown_fit_or_guess()
 
         def apply():
             v = self.lobe_view.viewer
@@ -477,6 +508,10 @@ class MainWindow(QMainWindow):
             self.show_error("nothing to fit: the measured data of this material is missing")
             return
         try:
+            guess = self.workspace.guess
+            if start is None and self.workspace.analytic is None and guess is not None and \
+                    [l.model.name for l in guess.lobes if l.channel in (None, 0)] == lobes and guess.combination == combination:
+                start = guess.copy()  # the guess the user edited
             if start is None:
                 start = material_from_lobes(lobes, combination, source.n_channels)
             samples = samples_of(source, kind, size=size, density=45)

@@ -146,7 +146,7 @@ class MaterialEditor(QWidget):
             self.tree.clear()
             if material is None:
                 self._clear_params()
-                self.energy.setText("A measured material: fit lobes to it in the Fitting panel.")
+                self.energy.setText("A measured material without its data: its fits are listed in Fitting.")
                 return
             for k, lobe in enumerate(material.lobes):
                 label = lobe.model.name + (f"  (channel {lobe.channel})" if lobe.channel is not None else "")

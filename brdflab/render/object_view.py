@@ -338,6 +338,13 @@ class ObjectRenderer:
         return out
 
 
+def _force_depth_func(ctx: moderngl.Context, func: str) -> None:
+    """Set the depth function for real: moderngl skips a value it believes is set, and a
+    host toolkit (Qt's paint events) may have changed it behind moderngl's back."""
+    ctx.depth_func = "<=" if func != "<=" else "<"
+    ctx.depth_func = func
+
+
 class Progressive:
     """An image that keeps improving while the view stays still: each `step` adds a fresh
     sample set (Cranley–Patterson rotated) to a float accumulation target."""
@@ -347,7 +354,7 @@ class Progressive:
         self.settings = settings
         ctx = renderer.ctx
         self.texture = ctx.texture((settings.width, settings.height), 4, dtype="f4")
-        self.depth = ctx.depth_renderbuffer((settings.width, settings.height))
+        self.depth = ctx.depth_texture((settings.width, settings.height))
         self.fbo = ctx.framebuffer([self.texture], self.depth)
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.samples = 0
@@ -357,16 +364,25 @@ class Progressive:
     def step(self, samples: int) -> None:
         r, s = self.renderer, self.settings
         ctx = r.ctx
-        previous = ctx.fbo
-        self.fbo.use()
+        self.fbo.use()  # callers bind their own framebuffer afterwards
+        if self.steps == 0:
+            # a host toolkit (Qt) may have changed GL state behind moderngl: set what we need
+            self.fbo.depth_mask = True
+            self.fbo.color_mask = (True, True, True, True)
+            self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.viewport = (0, 0, s.width, s.height)
         reference = s.reference_view or r.mesh is None
         ctx.disable(moderngl.CULL_FACE)
         if s.mode in ("point", "sh"):  # deterministic: one draw
             if self.steps == 0:
-                ctx.enable(moderngl.DEPTH_TEST) if not reference else ctx.disable(moderngl.DEPTH_TEST)
-                ctx.depth_func = "<"
-                r.draw(s)
+                if reference:
+                    ctx.disable(moderngl.DEPTH_TEST)
+                    r.draw(s)
+                else:
+                    self._depth_prepass(s)
+                    r.draw(s)
+                    self.fbo.depth_mask = True
+                    ctx.depth_func = "<"
                 self.samples = 1
         else:
             rotation = None if self.steps == 0 else self._rng.random(2)
@@ -375,14 +391,12 @@ class Progressive:
             if reference:
                 ctx.disable(moderngl.DEPTH_TEST)
             else:
-                ctx.enable(moderngl.DEPTH_TEST)
                 if self.steps == 0:
-                    ctx.depth_func = "<"
-                    self.fbo.color_mask = (False, False, False, False)
-                    r.draw(s, (0, 0), tex, footprint)
-                    self.fbo.color_mask = (True, True, True, True)
-                self.fbo.depth_mask = False
-                ctx.depth_func = "=="
+                    self._depth_prepass(s, tex, footprint)
+                else:
+                    ctx.enable(moderngl.DEPTH_TEST)
+                    self.fbo.depth_mask = False
+                    ctx.depth_func = "=="
             ctx.enable(moderngl.BLEND)
             ctx.blend_func = moderngl.ONE, moderngl.ONE
             try:
@@ -395,7 +409,18 @@ class Progressive:
                 tex.release()
             self.samples += samples
         self.steps += 1
-        previous.use()
+
+    def _depth_prepass(self, s: RenderSettings, tex=None, footprint: int = 1) -> None:
+        """Lay down the visible surface's depth, then leave the test at '==' with depth
+        writes off, so that the shading draws touch only the front-most fragments."""
+        ctx = self.renderer.ctx
+        ctx.enable(moderngl.DEPTH_TEST)
+        _force_depth_func(ctx, "<")
+        self.fbo.color_mask = (False, False, False, False)
+        self.renderer.draw(s, (0, 0), tex, footprint)
+        self.fbo.color_mask = (True, True, True, True)
+        self.fbo.depth_mask = False
+        _force_depth_func(ctx, "==")
 
     def release(self) -> None:
         for obj in (self.fbo, self.texture, self.depth):
