@@ -19,6 +19,8 @@ from .models import all_models
 from .reference_view import environment_image, relative_rmse, sphere_view
 from .resources import data_dir
 
+DATA_SLICE = Path(__file__).resolve().parents[2] / "shared" / "data" / "merl_slices" / "gold-metallic-paint3.slice"
+
 BENCH_MATERIALS = {
     "diffuse": lambda: AnalyticMaterial("diffuse", "Linear", 3, [Lobe.create("Lambertian", [0.25, 0.2, 0.15])]),
     "glossy": lambda: AnalyticMaterial("glossy", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
@@ -86,6 +88,67 @@ def render_numbers(quick: bool) -> dict:
     return out
 
 
+def big_mesh(min_vertices: int = 150_000):
+    """A shipped mesh (Spot) subdivided until it has at least `min_vertices` (the paper used a
+    teapot of about 150,000)."""
+    import trimesh
+
+    from .mesh import from_arrays, load_mesh
+
+    base = load_mesh(data_dir("resources") / "meshes" / "spot.obj")
+    v, f = base.positions.astype(float), base.faces.astype(np.int64)
+    while len(v) < min_vertices:
+        v, f = trimesh.remesh.subdivide(v, f)
+    return from_arrays(v, f, name="spot-subdivided")
+
+
+def sh_numbers(quick: bool) -> dict:
+    from .measured import read_slice
+    from .render.context import create_context
+    from .render.object_view import ObjectRenderer, RenderSettings
+    from .sh_tables import brdf_table
+
+    ctx = create_context()
+    renderer = ObjectRenderer(ctx)
+    env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr")
+    small = env.downsampled(128, 64)
+    size = 256 if quick else 512
+    err_size = 48 if quick else 96
+    orders = (3, 5) if quick else (3, 5, 8)
+    material = AnalyticMaterial("glossy", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
+                                                        Lobe.create("BlinnPhong", [0.3] * 3, Exponent=20.0)])
+    out = {"size": size, "tables": [], "frames": [], "errors": []}
+    for order in orders:
+        t0 = time.perf_counter()
+        brdf_table(material, order)
+        out["tables"].append({"source": "analytic (Lambertian + Blinn-Phong)", "order": order, "seconds": time.perf_counter() - t0})
+    slice_path = DATA_SLICE
+    if slice_path.exists():
+        table = read_slice(slice_path).to_full()
+        for order in orders:
+            t0 = time.perf_counter()
+            brdf_table(table, order)
+            out["tables"].append({"source": "measured (MERL gold-metallic-paint3, proxy-sampled)", "order": order,
+                                  "seconds": time.perf_counter() - t0})
+    reference = environment_image(material, small, err_size, err_size)
+    inside = sphere_view(err_size, err_size).inside
+    renderer.set_source(material)
+    mesh = big_mesh(50_000 if quick else 150_000)
+    for order in orders:
+        renderer.set_sh_order(order)
+        renderer.set_environment(small)
+        err = relative_rmse(renderer.render(RenderSettings("sh", err_size, err_size)), reference, inside)
+        out["errors"].append({"order": order, "relative_rmse": err})
+        renderer.set_environment(env)
+        for geometry in ("sphere", "mesh"):
+            renderer.set_mesh(None if geometry == "sphere" else mesh)
+            ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("sh", size, size, reference_view=geometry == "sphere")), 2)
+            out["frames"].append({"order": order, "geometry": geometry,
+                                  "vertices": 0 if geometry == "sphere" else mesh.n_vertices, "ms": ms})
+        renderer.set_mesh(None)
+    return out
+
+
 def charts(result: dict, out_dir: Path) -> list[str]:
     import matplotlib
 
@@ -99,12 +162,19 @@ def charts(result: dict, out_dir: Path) -> list[str]:
         ax.loglog([r["ms"] for r in rows], [100 * r["relative_rmse"] for r in rows], "o-", label=name)
         for r in rows:
             ax.annotate(f"{r['samples']}", (r["ms"], 100 * r["relative_rmse"]), textcoords="offset points", xytext=(4, 4), fontsize=8)
-    for extra in result.get("extra_series", []):
-        ax.loglog(extra["ms"], extra["error_percent"], "s--", label=extra["label"])
+    sh_result = result.get("sh")
+    if sh_result:
+        frames = {f["order"]: f["ms"] for f in sh_result["frames"] if f["geometry"] == "sphere"}
+        errs = sorted(sh_result["errors"], key=lambda e: e["order"])
+        ax.loglog([frames[e["order"]] for e in errs], [100 * e["relative_rmse"] for e in errs], "s--", color="black",
+                  label="SH, glossy (Blinn-Phong n=20)")
+        for e in errs:
+            ax.annotate(f"L={e['order']}", (frames[e["order"]], 100 * e["relative_rmse"]), textcoords="offset points",
+                        xytext=(4, -10), fontsize=8)
     ax.axhline(2.0, color="grey", lw=0.8, ls=":")
     ax.set_xlabel(f"milliseconds per frame at {result['render']['size']}² ({result['render']['renderer'].split(' (')[0]})")
     ax.set_ylabel("relative RMSE vs quadrature (%)")
-    ax.set_title("Environment lighting: speed against accuracy (labels: samples)")
+    ax.set_title("Environment lighting: speed against accuracy (FIS labels: samples)")
     ax.legend()
     fig.tight_layout()
     path = out_dir / "render_speed_accuracy.png"
@@ -133,7 +203,8 @@ def run(out_dir: Path, quick: bool = False) -> dict:
     result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine()},
               "quick": quick,
               "models": model_throughput(100_000 if quick else 1_000_000),
-              "render": render_numbers(quick)}
+              "render": render_numbers(quick),
+              "sh": sh_numbers(quick)}
     result["charts"] = charts(result, out_dir)
     atomic_write(out_dir / "bench.json", json.dumps(result, indent=2).encode())
     return result

@@ -462,8 +462,10 @@ def _lm(problem: _Problem, u: np.ndarray, options: FitOptions, max_iterations: i
                 status = "converged"
                 break
         else:
-            if predicted < ftol * cost:
-                status = "converged"  # even the local model promises less than the tolerance
+            if predicted < ftol * cost or small:
+                # the local model promises less than the tolerance, or the last accepted
+                # step already gained less and this one fails: nothing left to gain
+                status = "converged"
                 break
             lam *= 4.0
             cautious = True

@@ -223,3 +223,12 @@ def test_bad_input_gets_a_clear_error(case):
     assert text.startswith("bad.xml: ")
     assert message in text
     assert "\n" not in text
+
+
+def test_new_files_get_the_usual_permissions(tmp_path):
+    umask = os.umask(0o022)
+    try:
+        xmlio.atomic_write(tmp_path / "new.xml", b"<BRDF/>")
+        assert (tmp_path / "new.xml").stat().st_mode & 0o777 == 0o644
+    finally:
+        os.umask(umask)
