@@ -52,17 +52,21 @@ def model_throughput(pairs: int) -> list[dict]:
     return rows
 
 
-def render_numbers(quick: bool) -> dict:
+def _scene(quick: bool):
+    """A renderer, the shipped map and its 128 × 64 reduction, frame and error sizes."""
     from .render.context import create_context
-    from .render.lobe_view import LobeViewer
-    from .render.object_view import ObjectRenderer, RenderSettings
+    from .render.object_view import ObjectRenderer
 
     ctx = create_context()
-    renderer = ObjectRenderer(ctx)
     env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr")
-    small = env.downsampled(128, 64)
-    size = 256 if quick else 512
-    err_size = 48 if quick else 96
+    return ctx, ObjectRenderer(ctx), env, env.downsampled(128, 64), (256 if quick else 512), (48 if quick else 96)
+
+
+def render_numbers(quick: bool) -> dict:
+    from .render.lobe_view import LobeViewer
+    from .render.object_view import RenderSettings
+
+    ctx, renderer, env, small, size, err_size = _scene(quick)
     counts = (16, 64) if quick else (16, 64, 256)
     out = {"renderer": ctx.info.get("GL_RENDERER", ""), "size": size, "error_size": err_size, "point": [], "fis": []}
     inside = sphere_view(err_size, err_size).inside
@@ -104,16 +108,10 @@ def big_mesh(min_vertices: int = 150_000):
 
 def sh_numbers(quick: bool) -> dict:
     from .measured import read_slice
-    from .render.context import create_context
-    from .render.object_view import ObjectRenderer, RenderSettings
+    from .render.object_view import RenderSettings
     from .sh_tables import brdf_table
 
-    ctx = create_context()
-    renderer = ObjectRenderer(ctx)
-    env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr")
-    small = env.downsampled(128, 64)
-    size = 256 if quick else 512
-    err_size = 48 if quick else 96
+    _, renderer, env, small, size, err_size = _scene(quick)
     orders = (3, 5) if quick else (3, 5, 8)
     material = AnalyticMaterial("glossy", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
                                                         Lobe.create("BlinnPhong", [0.3] * 3, Exponent=20.0)])

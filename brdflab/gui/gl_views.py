@@ -32,6 +32,7 @@ class _GLView(QOpenGLWidget):
         super().__init__(parent)
         self.ctx: moderngl.Context | None = None
         self._last: QPointF | None = None
+        self._pending: list = []
         self.setMinimumSize(240, 200)
 
     def initializeGL(self) -> None:
@@ -41,6 +42,26 @@ class _GLView(QOpenGLWidget):
         except Exception as e:  # no usable OpenGL: say so instead of crashing
             self.ctx = None
             self.failed.emit(f"OpenGL is not available for this view: {str(e).splitlines()[0] if str(e) else e}")
+            return
+        pending, self._pending = self._pending, []
+        for fn in pending:
+            fn()
+
+    def when_ready(self, fn) -> None:
+        """Run fn now if GL is initialised, else right after initialisation. Inside
+        initializeGL/paintGL the context is already current and must stay so."""
+        if self.ctx is None:
+            self._pending.append(fn)
+            return
+        if QOpenGLContext.currentContext() is self.context():
+            fn()
+        else:
+            self.makeCurrent()
+            try:
+                fn()
+            finally:
+                self.doneCurrent()
+        self.update()
 
     def setup(self) -> None:
         raise NotImplementedError
@@ -89,30 +110,9 @@ class LobeView(_GLView):
 
     def setup(self) -> None:
         self.viewer = LobeViewer(self.ctx)
-        self._pending = getattr(self, "_pending", [])
-        for fn in self._pending:
-            fn()
-        self._pending.clear()
 
     def camera(self):
         return self.viewer.camera
-
-    def when_ready(self, fn) -> None:
-        """Run fn now if GL is initialised, else right after initialisation. Inside
-        initializeGL/paintGL the context is already current and must stay so."""
-        if self.ctx is not None:
-            if QOpenGLContext.currentContext() is self.context():
-                fn()
-            else:
-                self.makeCurrent()
-                try:
-                    fn()
-                finally:
-                    self.doneCurrent()
-            self.update()
-        else:
-            self._pending = getattr(self, "_pending", [])
-            self._pending.append(fn)
 
     def paintGL(self) -> None:
         if self.ctx is None:
@@ -158,15 +158,9 @@ class ObjectView(_GLView):
     def setup(self) -> None:
         self.renderer = ObjectRenderer(self.ctx)
         self.display = Display(self.ctx)
-        self._pending = getattr(self, "_pending", [])
-        for fn in self._pending:
-            fn()
-        self._pending.clear()
 
     def camera(self):
         return self.renderer.camera
-
-    when_ready = LobeView.when_ready
 
     def restart(self) -> None:
         """Something changed: throw the accumulated samples away."""
@@ -187,19 +181,18 @@ class ObjectView(_GLView):
         from ..sh_tables import cached_table
 
         r = self.renderer
+        if self._table_job is not None and self._table_job.done():
+            job, self._table_job = self._table_job, None
+            self.busy.emit("")
+            job.result()  # re-raises a failed build here, where it is reported
         if self.settings.mode != "sh" or r.sh_table_ready():
             return False
         if self._table_job is None:
             source = r.source if r.source is not None else r.material
             self._table_job = self._pool.submit(cached_table, source, r.sh_order)
             self.busy.emit(f"building the order-{r.sh_order} SH table…")
-        if not self._table_job.done():
-            QTimer.singleShot(100, self._refine)
-            return True
-        job, self._table_job = self._table_job, None
-        self.busy.emit("")
-        job.result()  # re-raises a failed build here, where it is reported
-        return False
+        QTimer.singleShot(100, self._refine)
+        return True
 
     def _refine(self) -> None:
         """Render more samples, outside paint events (Qt's paint-time GL state is not

@@ -149,9 +149,10 @@ class LobeViewer:
         s = self.settings
         vp = self.view_projection(width, height)
         vbo, ibo = self._mesh()
-        self.ctx.enable(moderngl.DEPTH_TEST)  # the context may be shared: set every state we rely on
+        # set every state we rely on: a host toolkit may have changed it behind moderngl
+        self.ctx.enable_only(moderngl.DEPTH_TEST)
+        self.ctx.disable_direct(0x0BE2)  # GL_BLEND
         self.ctx.depth_func = "<"
-        self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         self._draw_lines(vp)
         for index, layer in enumerate(self._layers):
             if layer is None:
@@ -175,10 +176,10 @@ class LobeViewer:
                 layer.vaos[index] = self.ctx.vertex_array(prog, [(vbo, "3f", "in_direction")], index_buffer=ibo,
                                                           index_element_size=4)
             if alpha < 1.0:
-                self.ctx.enable(moderngl.BLEND)
+                self.ctx.enable_only(moderngl.DEPTH_TEST | moderngl.BLEND)
                 self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
             layer.vaos[index].render(moderngl.TRIANGLES)
-            self.ctx.disable(moderngl.BLEND)
+            self.ctx.enable_only(moderngl.DEPTH_TEST)
 
     def gain(self) -> float:
         """Scale that makes the largest lobe reach radius 1 (same transfer as the shader)."""

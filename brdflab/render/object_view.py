@@ -293,12 +293,8 @@ class ObjectRenderer:
             self.ctx.viewport = (0, 0, w, h)
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             reference = settings.reference_view or self.mesh is None
-            self.ctx.disable(moderngl.CULL_FACE)
-            if reference:
-                self.ctx.disable(moderngl.DEPTH_TEST)
-            else:
-                self.ctx.enable(moderngl.DEPTH_TEST)
-                self.ctx.depth_func = "<"
+            _set_state(self.ctx, depth=not reference, blend=False)
+            self.ctx.depth_func = "<"
             if settings.mode == "fis":
                 n = max(1, int(settings.samples))
                 tex = self.samples_texture(n)
@@ -309,7 +305,7 @@ class ObjectRenderer:
                     fbo.color_mask = (True, True, True, True)
                     fbo.depth_mask = False
                     self.ctx.depth_func = "=="
-                self.ctx.enable(moderngl.BLEND)
+                _set_state(self.ctx, depth=not reference, blend=True)
                 self.ctx.blend_func = moderngl.ONE, moderngl.ONE
                 try:
                     for begin in range(0, n, BATCH):
@@ -338,11 +334,16 @@ class ObjectRenderer:
         return out
 
 
-def _force_depth_func(ctx: moderngl.Context, func: str) -> None:
-    """Set the depth function for real: moderngl skips a value it believes is set, and a
-    host toolkit (Qt's paint events) may have changed it behind moderngl's back."""
-    ctx.depth_func = "<=" if func != "<=" else "<"
-    ctx.depth_func = func
+GL_BLEND = 0x0BE2
+
+
+def _set_state(ctx: moderngl.Context, depth: bool, blend: bool) -> None:
+    """Set every capability these draws depend on, for real: a host toolkit (Qt) can
+    change GL state behind moderngl's cached flags (seen: GL_BLEND left enabled)."""
+    flags = (moderngl.DEPTH_TEST if depth else 0) | (moderngl.BLEND if blend else 0)
+    ctx.enable_only(flags)
+    if not blend:
+        ctx.disable_direct(GL_BLEND)
 
 
 class Progressive:
@@ -372,11 +373,10 @@ class Progressive:
             self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.viewport = (0, 0, s.width, s.height)
         reference = s.reference_view or r.mesh is None
-        ctx.disable(moderngl.CULL_FACE)
         if s.mode in ("point", "sh"):  # deterministic: one draw
             if self.steps == 0:
                 if reference:
-                    ctx.disable(moderngl.DEPTH_TEST)
+                    _set_state(ctx, depth=False, blend=False)
                     r.draw(s)
                 else:
                     self._depth_prepass(s)
@@ -389,15 +389,13 @@ class Progressive:
             tex = r.samples_texture(samples, rotation)
             footprint = self.samples + samples  # filter for all samples so far: the bias vanishes
             if reference:
-                ctx.disable(moderngl.DEPTH_TEST)
+                _set_state(ctx, depth=False, blend=False)
+            elif self.steps == 0:
+                self._depth_prepass(s, tex, footprint)
             else:
-                if self.steps == 0:
-                    self._depth_prepass(s, tex, footprint)
-                else:
-                    ctx.enable(moderngl.DEPTH_TEST)
-                    self.fbo.depth_mask = False
-                    ctx.depth_func = "=="
-            ctx.enable(moderngl.BLEND)
+                self.fbo.depth_mask = False
+                ctx.depth_func = "=="
+            _set_state(ctx, depth=not reference, blend=True)
             ctx.blend_func = moderngl.ONE, moderngl.ONE
             try:
                 for begin in range(0, samples, BATCH):
@@ -414,13 +412,13 @@ class Progressive:
         """Lay down the visible surface's depth, then leave the test at '==' with depth
         writes off, so that the shading draws touch only the front-most fragments."""
         ctx = self.renderer.ctx
-        ctx.enable(moderngl.DEPTH_TEST)
-        _force_depth_func(ctx, "<")
+        _set_state(ctx, depth=True, blend=False)
+        ctx.depth_func = "<"
         self.fbo.color_mask = (False, False, False, False)
         self.renderer.draw(s, (0, 0), tex, footprint)
         self.fbo.color_mask = (True, True, True, True)
         self.fbo.depth_mask = False
-        _force_depth_func(ctx, "==")
+        ctx.depth_func = "=="
 
     def release(self) -> None:
         for obj in (self.fbo, self.texture, self.depth):
