@@ -26,6 +26,11 @@ def window(qtbot, tmp_path):
     return w
 
 
+def open_and_wait(qtbot, w, opener, path):
+    opener(path)
+    qtbot.waitUntil(lambda: not w.loading, timeout=30000)
+
+
 def lobe_image(w):
     from PySide6.QtGui import QImage
 
@@ -65,12 +70,12 @@ def test_undo_and_redo(window):
     assert window.workspace.analytic.lobes[1].params["Exponent"] == 77.0
 
 
-def test_save_and_reopen(window, tmp_path):
+def test_save_and_reopen(window, qtbot, tmp_path):
     window.editor.parameter_edited.emit(1, "Exponent", 55.0)
     path = tmp_path / "mine.xml"
     assert window._save_to(path)
     assert not window.windowTitle().endswith("*— BRDFLab")
-    assert window.open_path(path)
+    open_and_wait(qtbot, window, window.open_path, path)
     assert window.workspace.analytic.lobes[1].params["Exponent"] == 55.0
     assert "mine.xml" in window.windowTitle()
 
@@ -83,7 +88,7 @@ def test_open_measured_fit_and_cancel(window, qtbot, tmp_path):
                                                 Lobe.create("CookTorrance", [0.5] * 3, m=0.2, F0=0.3)])
     path = tmp_path / "truth.binary"
     write_merl_binary(tabulate(truth), path)
-    assert window.open_path(path)
+    open_and_wait(qtbot, window, window.open_path, path)
     assert window.workspace.analytic is None and window.workspace.source is not None
     # the editor now edits the next fit's initial guess, drawn over the measured original
     window.fitting.lobes.setCurrentText("Lambertian,CookTorrance")
@@ -133,18 +138,23 @@ def test_switch_lighting_modes(window, qtbot):
     assert not window.statusBar().currentMessage().startswith("building")
 
 
-def test_corrupt_files_give_an_error_not_a_crash(window, tmp_path):
+def test_corrupt_files_give_an_error_not_a_crash(window, qtbot, tmp_path):
     bad = tmp_path / "bad.xml"
     bad.write_text("<BRDF><Material>")
     before = window.workspace
-    assert not window.open_path(bad)
+    open_and_wait(qtbot, window, window.open_path, bad)
     assert window.workspace is before
     assert "malformed XML" in window.statusBar().currentMessage()
     truncated = tmp_path / "short.binary"
     truncated.write_bytes(b"\x5a\x00\x00\x00")
-    assert not window.open_path(truncated)
+    open_and_wait(qtbot, window, window.open_path, truncated)
     assert "truncated" in window.statusBar().currentMessage()
     mesh = tmp_path / "nan.obj"
     mesh.write_text("v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
-    assert not window.open_mesh(mesh)
+    open_and_wait(qtbot, window, window.open_mesh, mesh)
     assert "NaN" in window.statusBar().currentMessage()
+    hdr = tmp_path / "bad.hdr"
+    hdr.write_bytes(b"#?RADIANCE\n\n-Y 8 +X 8\n")
+    open_and_wait(qtbot, window, window.open_environment, hdr)
+    assert "truncated" in window.statusBar().currentMessage()
+    assert window.workspace is before

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence, QUndoCommand, QUndoStack
-from PySide6.QtWidgets import QDockWidget, QFileDialog, QMainWindow, QMessageBox
+from PySide6.QtWidgets import QDockWidget, QFileDialog, QMainWindow, QMessageBox, QProgressBar
 
 from .. import workspace as ws_ops
 from ..envmap import load_environment
@@ -102,6 +103,12 @@ class MainWindow(QMainWindow):
         self._thread: QThread | None = None
         self._worker: FitWorker | None = None
         self._candidate = None
+        self._loader = ThreadPoolExecutor(max_workers=1)
+        self._loads: list = []
+        self.load_progress = QProgressBar(maximumWidth=160)
+        self.load_progress.setRange(0, 0)
+        self.load_progress.setVisible(False)
+        self.statusBar().addPermanentWidget(self.load_progress)
 
         self.lobe_view = LobeView()
         self.object_view = ObjectView()
@@ -374,16 +381,43 @@ class MainWindow(QMainWindow):
         if self.maybe_save():
             self.set_workspace(Workspace.new())
 
-    def open_path(self, path: Path) -> bool:
-        try:
-            workspace = Workspace.open(Path(path))
-        except BRDFLabError as e:
-            self.show_error(str(e))
-            return False
-        self._remember(Path(path))
-        self.set_workspace(workspace)
-        self.statusBar().showMessage(f"opened {path}", 5000)
-        return True
+    # loading happens in a worker thread; `loading` is true until the result is applied
+    @property
+    def loading(self) -> bool:
+        return bool(self._loads)
+
+    def _load(self, what: str, path: Path, work, apply) -> None:
+        """Run work(path) off the GUI thread, then apply(result) here (errors: a dialog)."""
+        future = self._loader.submit(work, Path(path))
+        self._loads.append(future)
+        self.statusBar().showMessage(f"opening {what} {path}…")
+        self.load_progress.setVisible(True)
+
+        def poll():
+            if not future.done():
+                QTimer.singleShot(30, poll)
+                return
+            self._loads.remove(future)
+            self.load_progress.setVisible(bool(self._loads))
+            try:
+                result = future.result()
+            except BRDFLabError as e:
+                self.show_error(str(e))
+                return
+            except Exception as e:  # a file that breaks a reader must not break the window
+                self.show_error(f"{path}: cannot open: {type(e).__name__}: {e}")
+                return
+            apply(result)
+
+        QTimer.singleShot(0, poll)
+
+    def open_path(self, path: Path) -> None:
+        def apply(workspace: Workspace) -> None:
+            self._remember(Path(path))
+            self.set_workspace(workspace)
+            self.statusBar().showMessage(f"opened {path}", 5000)
+
+        self._load("material", path, Workspace.open, apply)
 
     def open_dialog(self) -> None:
         if not self.maybe_save():
@@ -393,15 +427,13 @@ class MainWindow(QMainWindow):
             self.settings.setValue("folders/open", str(Path(name).parent))
             self.open_path(Path(name))
 
-    def open_mesh(self, path: Path) -> bool:
-        try:
-            mesh = load_mesh(path)
-        except BRDFLabError as e:
-            self.show_error(str(e))
-            return False
-        self.object_view.when_ready(lambda: self.object_view.renderer.set_mesh(mesh))
-        self.object_view.restart()
-        return True
+    def open_mesh(self, path: Path) -> None:
+        def apply(mesh) -> None:
+            self.object_view.when_ready(lambda: self.object_view.renderer.set_mesh(mesh))
+            self.object_view.restart()
+            self.statusBar().showMessage(f"mesh {path}: {mesh.n_vertices:,} vertices", 5000)
+
+        self._load("mesh", path, load_mesh, apply)
 
     def open_mesh_dialog(self) -> None:
         name, _ = QFileDialog.getOpenFileName(self, "Open mesh", self._folder("mesh"), "Meshes (*.obj *.ply *.stl *.off *.glb *.gltf)")
@@ -409,15 +441,13 @@ class MainWindow(QMainWindow):
             self.settings.setValue("folders/mesh", str(Path(name).parent))
             self.open_mesh(Path(name))
 
-    def open_environment(self, path: Path) -> bool:
-        try:
-            env = load_environment(path)
-        except BRDFLabError as e:
-            self.show_error(str(e))
-            return False
-        self.object_view.when_ready(lambda: self.object_view.renderer.set_environment(env))
-        self.object_view.restart()
-        return True
+    def open_environment(self, path: Path) -> None:
+        def apply(env) -> None:
+            self.object_view.when_ready(lambda: self.object_view.renderer.set_environment(env))
+            self.object_view.restart()
+            self.statusBar().showMessage(f"environment {path}", 5000)
+
+        self._load("environment", path, load_environment, apply)
 
     def open_environment_dialog(self) -> None:
         name, _ = QFileDialog.getOpenFileName(self, "Open environment", self._folder("env"), "HDR maps (*.hdr *.exr)")

@@ -1,0 +1,149 @@
+"""Write docs/benchmarks.md from the raw outputs in docs/bench/.
+
+    brdflab bench --out docs/bench
+    python benchmarks/fitting.py --json docs/bench/fitting.json > docs/bench/fitting.log
+    python benchmarks/report.py
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def fitting_rows(log: str):
+    speed, published, multistart = [], [], []
+    for line in log.splitlines():
+        p = line.split()
+        if "samples" in line and " it " in line:
+            speed.append((p[0], p[1].replace("+", " + "), p[8], p[4], p[6], p[9]))
+        elif "published" in line and "fitted" in line and len(p) >= 7:
+            published.append((p[0], p[2], p[4], p[6].strip("(")))
+        elif " starts " in line and " gap " in line:
+            multistart.append((p[0], p[1], p[3], p[8], f"{p[10]} {p[11]}"))
+        elif line.strip().startswith("peak"):
+            memory = line.strip()
+    return speed, published, multistart, memory
+
+
+def table(header: str, rows) -> str:
+    cols = header.count("|") - 1
+    out = [header, "|" + "|".join(["---"] * cols) + "|"]
+    out += ["| " + " | ".join(str(x) for x in row) + " |" for row in rows]
+    return "\n".join(out)
+
+
+def main() -> None:
+    bench = json.loads((DOCS / "bench" / "bench.json").read_text())
+    speed, published, multistart, memory = fitting_rows((DOCS / "bench" / "fitting.log").read_text())
+    r = bench["render"]
+    sh = bench["sh"]
+    frames = {(f["order"], f["geometry"]): f["ms"] for f in sh["frames"]}
+    better = sum(float(f) < float(p) for _, p, f, _ in published)
+    text = f"""# Benchmarks
+
+Every number here was measured on this project's reference machine: 2 cores, 24 GiB, no GPU,
+OpenGL from Mesa llvmpipe (OpenGL 4.5), Python 3.11, NumPy 2.4, with nothing else running.
+Raw outputs: `docs/bench/`. This page is written by `python benchmarks/report.py`.
+
+## Lobe evaluation throughput (NumPy, float64, one core)
+
+`brdflab bench --out docs/bench`: 1,000,000 random direction pairs above the surface per
+model, best of 3 (also `python benchmarks/model_throughput.py`).
+
+{table("| model | Mpairs/s |", [(m["model"], f"{m['mpairs_per_s']:.1f}") for m in sorted(bench["models"], key=lambda m: -m["mpairs_per_s"])])}
+
+Schwenk's survey ranks models by cost; NumPy agrees in kind: Lafortune and Phong (a dot
+product and a power) cost about half of the microfacet models (half vector, Fresnel,
+distribution, masking); Strauss, with its Fresnel and shadowing approximations on angles,
+is the most expensive.
+
+![Model throughput](bench/model_throughput.png)
+
+## Fitting (Levenberg–Marquardt)
+
+`python benchmarks/fitting.py --json docs/bench/fitting.json` (log: `docs/bench/fitting.log`).
+
+### Speed on full MERL-size tables, load included
+
+Each table is a real 90 × 90 × 180 MERL `.binary` file (33 MB, float64) written from a
+measured slice; the time includes reading it; 1,111,428 valid samples above the surface.
+BRDFLab (2009) needed 45.2 s and 94.2 s for such fits. Targets: two lobes ≤ 2 s, three ≤ 5 s.
+
+{table("| material | lobes (Linear) | metric | wall time (s) | iterations | error |", speed)}
+
+How: one pass over the samples per iteration accumulates per-channel Gram matrices of the
+lobe values at the current parameters and at every finite-difference perturbation; cost,
+JᵀJ and Jᵀr (with the scaling factors re-solved by NNLS for each perturbation) follow
+exactly from them. Directions are generated per θh row from the table (no per-sample
+arrays), a stratified 60,000-sample subset finds the basin first, and trial steps after a
+rejection are evaluated on the cost alone.
+
+### Against the published fits (Ngan et al. 2005)
+
+Lambertian + LafortuneIso fitted with the Ngan metric (with model-aware restarts) on each
+measured slice, against the published parameters on the same data (their kd is an albedo
+and enters as kd/π; the data confirm it — as a BRDF value the diffuse materials' errors
+triple). {better} of {len(published)} fits are better.
+
+{table("| material | published | fitted | time (s) |", published)}
+
+### Against a long multi-start search
+
+Lambertian + each model, Ngan metric, on a measured slice: our fit (model-aware restarts)
+against the best of 30 fits from random starts inside the bounds.
+
+{table("| material | model | ours | best of 30 | gap |", multistart)}
+
+### Memory
+
+{memory[0].upper() + memory[1:]} (nickel table, Lambertian + LafortuneIso; target: under 3 ×).
+
+## Rendering (llvmpipe, software OpenGL)
+
+`brdflab bench --out docs/bench`. Frame times at {r["size"]} × {r["size"]} in the reference
+view; errors are relative RMSE against NumPy quadrature over the texels of the Venice
+Sunset map reduced to 128 × 64, measured at {r["error_size"]} × {r["error_size"]}.
+
+### Point light
+
+{table("| material | ms / frame |", [(p["material"], f"{p['ms']:.1f}") for p in r["point"]])}
+
+Point-light renders equal f(wi, wo)·cos θi from NumPy to 1e-3 relative, pixel by pixel.
+
+### Filtered importance sampling
+
+{table("| material | samples | ms / frame | relative RMSE |", [(f["material"], f["samples"], f"{f['ms']:.0f}", f"{100 * f['relative_rmse']:.2f} %") for f in r["fis"]])}
+
+![Speed against accuracy](bench/render_speed_accuracy.png)
+
+### Lobe viewer
+
+{table("| subdivision level | triangles | ms / frame |", [(l["level"], f"{l['triangles']:,}", f"{l['ms']:.1f}") for l in r["lobe_viewer"]])}
+
+A parameter change only rewrites uniforms, so level 5 redraws in under 10 ms.
+
+### Spherical harmonics (Kautz et al. 2002)
+
+BRDF product tables, 128 × 128 parabolic map, 256 importance samples per view (the paper:
+minutes for analytic models, up to 90 minutes for measured ones):
+
+{table("| source | order | build time (s) |", [(t["source"], t["order"], f"{t['seconds']:.1f}") for t in sh["tables"]])}
+
+Frame times with per-pixel rotation (view and light both free); the mesh is Spot subdivided
+to {next(f["vertices"] for f in sh["frames"] if f["geometry"] == "mesh"):,} vertices (the paper's teapot had about 150,000):
+
+{table("| order | sphere (ms) | mesh (ms) | relative RMSE (glossy, n = 20) |", [(e["order"], f"{frames[(e['order'], 'sphere')]:.0f}", f"{frames[(e['order'], 'mesh')]:.0f}", f"{100 * e['relative_rmse']:.2f} %") for e in sh["errors"]])}
+
+On a software rasteriser the per-pixel rotation (z-rotations and two tabulated ±90°
+x-rotations per band) costs more than sampling the map at comparable error (see the chart:
+FIS with 64 samples against SH order 5). The paper's fixed-light and fixed-view modes, which
+remove the rotation, are not built yet.
+"""
+    (DOCS / "benchmarks.md").write_text(text)
+
+
+if __name__ == "__main__":
+    main()
