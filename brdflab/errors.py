@@ -12,4 +12,5 @@ class BRDFLabError(Exception):
 
     def __init__(self, message: str, path: object | None = None) -> None:
         self.path = None if path is None else str(path)
+        message = " ".join(str(message).split())  # one line, whatever a library said
         super().__init__(f"{self.path}: {message}" if self.path else message)

@@ -129,6 +129,7 @@ class AnalyticMaterial:
             "combination": self.combination,
             "channels": self.n_channels,
             "isotropic": self.isotropic,
+            "domain": "every pair of directions above the surface",
             "lobes": [
                 {"model": l.model.name, "parameters": dict(l.params), "scale": list(l.scale), "channel": l.channel}
                 for l in self.lobes

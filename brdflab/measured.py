@@ -58,6 +58,8 @@ class MeasuredTable:
             "total_samples": int(self.valid.size),
             "max_value": [float(self.values[c][self.valid].max()) if self.valid.any() else None for c in range(self.n_channels)],
             "interpolation": self.interpolation,
+            "domain": (f"isotropic; MERL's θh × θd × φd grid ({'φd-independent slice' if self.phi_d_samples == 1 else 'φd folded to [0, π)'}); "
+                       f"{int(self.valid.sum())} of {self.valid.size} samples measured, others read as 0"),
             **self.meta,
         }
 
@@ -249,7 +251,8 @@ class RawSamples:
 
     def describe(self) -> dict:
         return {"type": self.source_type, "name": self.name, "file": None if self.path is None else str(self.path),
-                "channels": self.n_channels, "samples": int(self.samples.shape[0])}
+                "channels": self.n_channels, "samples": int(self.samples.shape[0]),
+                "domain": "scattered measurements; other pairs take the nearest sample's value"}
 
 
 def read_raw_samples(path: str | os.PathLike) -> RawSamples:

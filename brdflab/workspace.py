@@ -54,6 +54,10 @@ class Workspace:
                     ws.source = resolve_measured(doc.material)
                 except BRDFLabError as e:
                     ws.messages.append(str(e))  # the fits stay usable without the data
+                else:
+                    ref = doc.material
+                    if ref.sha256 and ref.current_sha256() != ref.sha256:
+                        ws.messages.append(f"{ref.path}: the data file changed since its fits were made (sha256 differs)")
             if doc.fittings:
                 ws.shown_fit = len(doc.fittings) - 1
             return ws

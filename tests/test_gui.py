@@ -117,6 +117,10 @@ def test_open_measured_fit_and_cancel(window, qtbot, tmp_path):
     assert abs(fits[1].material.lobes[1].params["m"] - 0.2) < 1e-3
     window.undo_stack.undo()  # fits are undoable too
     assert len(window.workspace.document.fittings) == 1
+    # a fit of measured data becomes a new analytic document
+    window.fitting.promote_requested.emit(0)
+    assert window.workspace.analytic is not None and window.workspace.path is None
+    assert [l.model.name for l in window.workspace.analytic.lobes] == ["Lambertian", "CookTorrance"]
 
 
 def test_switch_lighting_modes(window, qtbot):

@@ -207,3 +207,25 @@ def test_merl_channel_scales_are_applied(tmp_path):
     path.write_bytes(merl_bytes(raw.ravel()))
     t = read_merl_binary(path)
     np.testing.assert_allclose(t.values[:, 3, 3, 3], MERL_SCALE, rtol=1e-6)
+
+
+def test_sources_say_where_they_are_defined(merl_file, tmp_path):
+    from brdflab.workspace import Workspace
+
+    assert "samples measured" in read_merl_binary(merl_file).describe()["domain"]
+    assert "above the surface" in GLOSSY.describe()["domain"]
+    # a workspace notices a data file that changed since its fits were recorded
+    import shutil
+
+    from brdflab.xmlio import BRDFDocument, MeasuredReference, save
+
+    data = tmp_path / "d.binary"
+    shutil.copy(merl_file, data)
+    ref = MeasuredReference("MERLBRDFDatabase", "d.binary", tmp_path)
+    ref.sha256 = ref.current_sha256()
+    save(BRDFDocument(ref), tmp_path / "d.xml")
+    assert not any("changed" in m for m in Workspace.open(tmp_path / "d.xml").messages)
+    raw = bytearray(data.read_bytes())
+    raw[-1] ^= 1
+    data.write_bytes(bytes(raw))
+    assert any("changed since its fits were made" in m for m in Workspace.open(tmp_path / "d.xml").messages)

@@ -198,6 +198,7 @@ def test_save_is_atomic(tmp_path, monkeypatch):
 
 BAD = {
     "malformed": (b"<BRDF><Material>", "malformed XML"),
+    "NUL byte (found by the fuzzer; libxml2's message spans two lines)": (b"<\x00BRDF>", "malformed XML"),
     "unknown model": (ORIGINAL.replace(b"<Model>Ward</Model>", b"<Model>Wardd</Model>"), "unknown lobe model 'Wardd'"),
     "missing parameter": (ORIGINAL.replace(b'Cxy="-0.573" ', b""), "missing parameter(s) Cxy"),
     "extra parameter": (ORIGINAL.replace(b'Cz="0.522"', b'Cz="0.522" Cw="1"'), "no parameter(s) Cw"),

@@ -609,7 +609,12 @@ class MainWindow(QMainWindow):
     def _promote(self, index: int) -> None:
         material = self.workspace.document.fittings[index].material.copy()
         if self.workspace.analytic is None:
-            self.show_error("a measured material keeps its data; its fits are stored with it")
+            # measured data stay with their fits: the fit becomes a new analytic document
+            if self.maybe_save():
+                workspace = Workspace.new()
+                workspace.document.material = material
+                workspace.dirty = True
+                self.set_workspace(workspace)
             return
         self._edit(material, "Make fit the main material")
 
