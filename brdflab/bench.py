@@ -143,6 +143,11 @@ def sh_numbers(quick: bool) -> dict:
             ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("sh", size, size, reference_view=geometry == "sphere")), 2)
             out["frames"].append({"order": order, "geometry": geometry,
                                   "vertices": 0 if geometry == "sphere" else mesh.n_vertices, "ms": ms})
+        for variant in ("fixed-light", "fixed-view"):  # the paper's modes, per vertex on the mesh
+            renderer.sh_variant = variant
+            ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("sh", size, size, reference_view=False)), 2)
+            out["frames"].append({"order": order, "geometry": variant, "vertices": mesh.n_vertices, "ms": ms})
+        renderer.sh_variant = "dynamic"
         renderer.set_mesh(None)
     return out
 

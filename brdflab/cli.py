@@ -190,6 +190,8 @@ def cmd_render(args: argparse.Namespace) -> int:
         renderer.set_environment(load_environment(env_path))
     if args.mode == "sh":
         renderer.set_sh_order(args.sh_order, None if args.sh_window == "none" else args.sh_window)
+        renderer.sh_shadows = args.sh_shadows
+        renderer.sh_variant = args.sh_variant
     renderer.render(RenderSettings(**{**settings.__dict__, "width": 8, "height": 8, "samples": 1}))  # compile
     t0 = time.perf_counter()
     image = renderer.render(settings)
@@ -289,6 +291,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--samples", type=int, default=64)
     p.add_argument("--sh-order", type=int, default=5, help="bands of the SH mode (order² coefficients)")
     p.add_argument("--sh-window", choices=["none", "hanning", "lanczos"], default="none", help="against ringing")
+    p.add_argument("--sh-shadows", action="store_true", help="self-shadowing by precomputed transfer (meshes)")
+    p.add_argument("--sh-variant", choices=["dynamic", "fixed-light", "fixed-view"], default="dynamic",
+                   help="per-pixel rotation, or the paper's per-vertex precomputation for a fixed light or view")
     p.add_argument("--size", default="512,512", help="W,H")
     p.add_argument("--exposure", type=float, default=0.0, help="stops, for .png output")
     p.add_argument("--fitting", type=int, default=None, help="render the K-th stored fit")

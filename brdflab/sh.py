@@ -188,3 +188,35 @@ def zyz_angles(R: np.ndarray) -> tuple[float, float, float]:
     if abs(math.sin(beta)) < 1e-9:
         return math.atan2(R[1, 0], R[0, 0]) if R[2, 2] > 0 else math.atan2(-R[1, 0], -R[0, 0]), beta, 0.0
     return math.atan2(R[1, 2], R[0, 2]), beta, math.atan2(R[2, 1], -R[2, 0])
+
+
+def _rotate_z_many(c: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rotate (V, n, C) coefficient sets about z by per-set angles (V,)."""
+    order = int(round(math.sqrt(c.shape[1])))
+    out = c.copy()
+    for l in range(1, order):
+        for m in range(1, l + 1):
+            ca, sa = np.cos(m * angle)[:, None], np.sin(m * angle)[:, None]
+            n, p = index(l, -m), index(l, m)
+            a, b = c[:, n], c[:, p]
+            out[:, n] = ca * a + sa * b
+            out[:, p] = -sa * a + ca * b
+    return out
+
+
+def rotate_many(c: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Coefficients (V, n, C) turned by V rotations R (V, 3, 3), through the zyz
+    decomposition M(R) = Mz(α) M(Rx(−90°)) Mz(β) M(Rx(90°)) Mz(γ), vectorised."""
+    order = int(round(math.sqrt(c.shape[1])))
+    beta = np.arccos(np.clip(R[:, 2, 2], -1.0, 1.0))
+    degenerate = np.abs(np.sin(beta)) < 1e-9
+    alpha = np.where(degenerate, np.where(R[:, 2, 2] > 0, np.arctan2(R[:, 1, 0], R[:, 0, 0]), np.arctan2(-R[:, 1, 0], -R[:, 0, 0])),
+                     np.arctan2(R[:, 1, 2], R[:, 0, 2]))
+    gamma = np.where(degenerate, 0.0, np.arctan2(R[:, 2, 1], -R[:, 2, 0]))
+    x90 = rotation_matrix(axis_rotation("x", math.pi / 2), order)
+    xm90 = rotation_matrix(axis_rotation("x", -math.pi / 2), order)
+    out = _rotate_z_many(c, gamma)
+    out = np.einsum("ij,vjc->vic", x90, out)
+    out = _rotate_z_many(out, beta)
+    out = np.einsum("ij,vjc->vic", xm90, out)
+    return _rotate_z_many(out, alpha)

@@ -93,6 +93,21 @@ def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int =
     return out.reshape(size, size, order * order, n_ch)
 
 
+def lookup(table: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of c(v) (…, order², C) for view directions v (…, 3), as the GPU does."""
+    size = table.shape[0]
+    vz = np.maximum(v[..., 2], 0.0)
+    p = v[..., :2] / (1.0 + vz)[..., None]
+    x = (p[..., 0] + 1.0) * 0.5 * size - 0.5
+    y = (p[..., 1] + 1.0) * 0.5 * size - 0.5
+    x0 = np.clip(np.floor(x).astype(int), 0, size - 2)
+    y0 = np.clip(np.floor(y).astype(int), 0, size - 2)
+    fx = np.clip(x - x0, 0.0, 1.0)[..., None, None]
+    fy = np.clip(y - y0, 0.0, 1.0)[..., None, None]
+    return ((1 - fx) * (1 - fy) * table[y0, x0] + fx * (1 - fy) * table[y0, x0 + 1]
+            + (1 - fx) * fy * table[y0 + 1, x0] + fx * fy * table[y0 + 1, x0 + 1])
+
+
 _CACHE: dict = {}
 
 

@@ -16,7 +16,14 @@ uniform mat4 u_model;
 out vec3 v_position;
 out vec3 v_normal;
 out vec3 v_tangent;
+#ifdef SH_VERTEX_LIGHT
+in int in_vertex;        // the vertex's index (an attribute: moderngl mishandles gl_VertexID)
+flat out int v_vertex;   // which vertex's transferred (shadowed) lighting to use
+#endif
 void main() {
+#ifdef SH_VERTEX_LIGHT
+    v_vertex = in_vertex;
+#endif
     vec4 world = u_model * vec4(in_position, 1.0);
     v_position = world.xyz;
     v_normal = mat3(u_model) * in_normal;

@@ -7,6 +7,19 @@ uniform vec3 u_sh_light[SH_N];        // world-frame lighting coefficients (RGB)
 uniform sampler2DArray u_sh_table;    // c_i per channel, packed 4 values per layer
 uniform sampler2D u_sh_rx;            // band matrices of Rx(+90°), then of Rx(−90°)
 uniform int u_sh_rx_half;             // offset of the Rx(−90°) matrices
+#ifdef SH_VERTEX_LIGHT
+// per-vertex data computed on the CPU, SH_VERTEX_STRIDE values per vertex, SH_VERTEX_ROW
+// vertices per texture row: the (shadowed) world lighting; with SH_FIXED_LIGHT the lighting
+// already rotated into the vertex's frame; with SH_FIXED_VIEW the vertex's final colour
+flat in int v_vertex;
+uniform sampler2D u_sh_vertex_light;
+vec3 vertex_value(int i) {
+    return texelFetch(u_sh_vertex_light, ivec2(i + SH_VERTEX_STRIDE * (v_vertex % SH_VERTEX_ROW), v_vertex / SH_VERTEX_ROW), 0).rgb;
+}
+vec3 sh_light(int i) { return vertex_value(i); }
+#else
+vec3 sh_light(int i) { return u_sh_light[i]; }
+#endif
 
 void sh_rotate_z(inout vec3 c[SH_N], float t) {
     for (int l = 1; l < SH_ORDER; l++) {
@@ -36,6 +49,9 @@ void sh_rotate_x(inout vec3 c[SH_N], int base) {
 }
 
 vec3 sh_shade(mat3 world_to_local_rows_tbn, vec3 wo) {
+#ifdef SH_FIXED_VIEW
+    return vertex_value(0);
+#endif
     // R = rows (t, b, n): local = R · world.  R = Rz(α) Ry(β) Rz(γ)
     vec3 t = world_to_local_rows_tbn[0], b = world_to_local_rows_tbn[1], n = world_to_local_rows_tbn[2];
     float r22 = n.z;
@@ -49,12 +65,14 @@ vec3 sh_shade(mat3 world_to_local_rows_tbn, vec3 wo) {
         gamma = atan(n.y, -n.x);
     }
     vec3 c[SH_N];
-    for (int i = 0; i < SH_N; i++) c[i] = u_sh_light[i];
+    for (int i = 0; i < SH_N; i++) c[i] = sh_light(i);
+#ifndef SH_FIXED_LIGHT
     sh_rotate_z(c, gamma);
     sh_rotate_x(c, 0);
     sh_rotate_z(c, beta);
     sh_rotate_x(c, u_sh_rx_half);
     sh_rotate_z(c, alpha);
+#endif
     vec2 uv = 0.5 * (wo.xy / (1.0 + max(wo.z, 0.0)) + 1.0);
     vec3 color = vec3(0.0);
     for (int layer = 0; layer < (SH_N * 3 + 3) / 4; layer++) {

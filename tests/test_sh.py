@@ -172,3 +172,76 @@ def test_ringing_is_clamped_and_reported(renderer):
     renderer.set_sh_order(6)
     img = renderer.render(RenderSettings("sh", 48, 48))
     assert renderer.clamped_pixels > 0 and img.min() >= 0.0
+
+
+def test_quadrature_makes_full_visibility_an_identity():
+    from brdflab.render.transfer import quadrature, transferred_lighting
+
+    dirs, w = quadrature(6)
+    light = np.random.default_rng(2).normal(size=(36, 3))
+    np.testing.assert_allclose(transferred_lighting(light, np.ones((5, len(dirs))), dirs, w), np.broadcast_to(light, (5, 36, 3)), atol=1e-10)
+
+
+def test_self_shadowing_sphere_and_concave_mesh(renderer):
+    from brdflab.envmap import constant
+    from brdflab.mesh import from_arrays, uv_sphere
+
+    renderer.set_environment(constant(1.0, 64, 32))
+    renderer.set_source(AnalyticMaterial("d", "Linear", 3, [Lobe.create("Lambertian", [0.25] * 3)]))
+    renderer.set_sh_order(4)
+    settings = RenderSettings("sh", 96, 96, reference_view=False)
+    # nothing occludes a sphere: shadowed and unshadowed renders are the same
+    renderer.set_mesh(uv_sphere(24, 48))
+    renderer.sh_shadows = False
+    plain = renderer.render(settings)
+    renderer.sh_shadows = True
+    shadowed = renderer.render(settings)
+    np.testing.assert_allclose(shadowed, plain, atol=1e-5)
+    # a corner (floor and wall): near the crease the wall hides half of the sky
+    n = 24
+    g = np.linspace(-0.8, 0.8, n)
+    a, b = np.meshgrid(g, g)
+    floor = np.stack([a.ravel(), np.full(a.size, -0.5), b.ravel()], 1)
+    wall = np.stack([a.ravel(), b.ravel() * 0.5 - 0.2, np.full(a.size, -0.8)], 1)
+    idx = np.arange(n * n).reshape(n, n)
+    quads = np.stack([idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]], -1).reshape(-1, 4)
+    tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    corner = from_arrays(np.vstack([floor, wall]), np.vstack([tris, tris + n * n]), name="corner")
+    from brdflab.render.transfer import quadrature, vertex_visibility
+
+    dirs, _ = quadrature(4)
+    vis = vertex_visibility(renderer.ctx, corner, dirs)
+    floor_vis = vis[: n * n].mean(axis=1).reshape(n, n)  # rows: z from −0.8 (the wall's foot) to 0.8
+    near, far = floor_vis[1:5].mean(), floor_vis[-4:].mean()
+    assert near < far - 0.1  # the wall hides more of the sky from its foot
+    renderer.set_mesh(corner)
+    renderer.sh_shadows = False
+    plain = renderer.render(settings)
+    renderer.sh_shadows = True
+    shadowed = renderer.render(settings)
+    renderer.sh_shadows = False
+    renderer.set_mesh(None)
+    drawn = plain.sum(axis=2) > 0
+    assert (shadowed.sum(axis=2) <= plain.sum(axis=2) * 1.001 + 1e-6)[drawn].all()
+    assert (shadowed.sum(axis=2) < 0.9 * plain.sum(axis=2))[drawn].mean() > 0.05
+
+
+@pytest.mark.parametrize("variant, tolerance", [("fixed-light", 0.02), ("fixed-view", 0.05)])
+def test_fixed_light_and_fixed_view_match_per_pixel_rotation(renderer, variant, tolerance):
+    from brdflab.mesh import uv_sphere
+    from brdflab.resources import data_dir
+
+    renderer.set_environment(load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"))
+    renderer.set_source(AnalyticMaterial("g", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
+                                                            Lobe.create("BlinnPhong", [0.3] * 3, Exponent=20.0)]))
+    renderer.set_sh_order(5)
+    renderer.set_mesh(uv_sphere(96, 192))
+    settings = RenderSettings("sh", 96, 96, reference_view=False)
+    renderer.sh_variant = "dynamic"
+    per_pixel = renderer.render(settings)
+    renderer.sh_variant = variant
+    fixed = renderer.render(settings)
+    renderer.sh_variant = "dynamic"
+    renderer.set_mesh(None)
+    drawn = per_pixel.sum(axis=2) > 0
+    assert relative_rmse(fixed, per_pixel, drawn) < tolerance

@@ -361,8 +361,14 @@ class MainWindow(QMainWindow):
         s.env_rotation = c.rotation.spin.value()
         s.light = c.light()
         v.exposure = c.exposure.spin.value()
-        order = c.sh_order.value()
-        v.when_ready(lambda: v.renderer.set_sh_order(order))
+        order, shadows, variant = c.sh_order.value(), c.sh_shadows.isChecked(), c.sh_variant.currentText()
+
+        def apply_sh():
+            v.renderer.set_sh_order(order)
+            v.renderer.sh_shadows = shadows
+            v.renderer.sh_variant = variant
+
+        v.when_ready(apply_sh)
         v.reinhard = c.reinhard.isChecked()
         self._push_object_source()
 

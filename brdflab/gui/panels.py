@@ -257,6 +257,9 @@ class ObjectControls(QWidget):
         self.mode = QComboBox()
         self.mode.addItems(["fis", "point", "sh"])
         self.sh_order = QSpinBox(minimum=1, maximum=10, value=5)
+        self.sh_shadows = QCheckBox("SH self-shadowing")
+        self.sh_variant = QComboBox()
+        self.sh_variant.addItems(["dynamic", "fixed-light", "fixed-view"])
         self.samples = QSpinBox(minimum=1, maximum=4096, value=256)
         self.exposure = ParameterRow(-8.0, 8.0, 0.0)
         self.rotation = ParameterRow(0.0, 359.0, 0.0)
@@ -272,13 +275,14 @@ class ObjectControls(QWidget):
         form.addRow("lighting", self.mode)
         form.addRow("samples", self.samples)
         form.addRow("SH order", self.sh_order)
+        form.addRow("SH variant", self.sh_variant)
         form.addRow("exposure (EV)", self.exposure)
         form.addRow("environment rotation (°)", self.rotation)
         form.addRow("light θ (°)", self.light_theta)
         form.addRow("light φ (°)", self.light_phi)
         form.addRow("show", self.show)
         row = QHBoxLayout()
-        for w in (mesh, env, self.reinhard):
+        for w in (mesh, env, self.reinhard, self.sh_shadows):
             row.addWidget(w)
         form.addRow(row)
         self.mode.currentIndexChanged.connect(lambda _: self.changed.emit())
@@ -286,6 +290,8 @@ class ObjectControls(QWidget):
         self.sh_order.valueChanged.connect(lambda _: self.changed.emit())
         self.show.currentIndexChanged.connect(lambda _: self.changed.emit())
         self.reinhard.toggled.connect(lambda _: self.changed.emit())
+        self.sh_shadows.toggled.connect(lambda _: self.changed.emit())
+        self.sh_variant.currentIndexChanged.connect(lambda _: self.changed.emit())
         for row_ in (self.exposure, self.rotation, self.light_theta, self.light_phi):
             row_.edited.connect(lambda _: self.changed.emit())
 

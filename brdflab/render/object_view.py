@@ -24,6 +24,7 @@ from .sampling_sets import lobe_shares, sample_set
 
 MODES = ("point", "fis", "sh")
 BATCH = 32  # samples per draw: keeps each draw short on software rasterisers
+VERTEX_ROW = 64  # vertices per row of the per-vertex SH lighting texture
 
 
 @dataclass
@@ -63,6 +64,9 @@ class ObjectRenderer:
         self.env_size = (1, 1)
         self.camera = OrbitCamera()
         self.model_rotation = np.eye(3)  # turns the object (meshes) in the world
+        self.sh_shadows = False  # precomputed transfer (self-shadowing) in the SH mode
+        self.sh_variant = "dynamic"  # or the paper's "fixed-light" / "fixed-view" (meshes)
+        self._transfer: dict = {}
         self.sh_order = 5
         self.sh_window: str | None = None
         self.source = None
@@ -103,6 +107,10 @@ class ObjectRenderer:
 
     def set_mesh(self, mesh: Mesh | None) -> None:
         """A mesh to draw, or None for the reference view's sphere."""
+        for entry in self._transfer.values():
+            if entry.get("texture") is not None:
+                entry["texture"].release()
+        self._transfer.clear()
         for vao in self._mesh_vao.values():
             vao.release()
         self._mesh_vao.clear()
@@ -112,7 +120,8 @@ class ObjectRenderer:
         self.mesh = mesh
         self._mesh_buffers = None
         if mesh is not None:
-            self._mesh_buffers = (self.ctx.buffer(mesh.interleaved().tobytes()), self.ctx.buffer(mesh.faces.tobytes()))
+            self._mesh_buffers = (self.ctx.buffer(mesh.interleaved().tobytes()), self.ctx.buffer(mesh.faces.tobytes()),
+                                  self.ctx.buffer(np.arange(mesh.n_vertices, dtype="i4").tobytes()))
 
     def set_environment(self, env: EnvironmentMap) -> None:
         if self.env_texture is not None:
@@ -179,6 +188,72 @@ class ObjectRenderer:
 
         return self._sh_state is not None or is_cached(self.source if self.source is not None else self.material, self.sh_order)
 
+    def _vertex_frames(self) -> tuple[np.ndarray, np.ndarray]:
+        """World → local rotation of every vertex (rows t, b, n, as the fragment shader
+        builds them) and every vertex's view direction (world)."""
+        from ..vec import normalize
+
+        R_model = self.model_rotation
+        p = self.mesh.positions.astype(float) @ R_model.T
+        n = normalize(self.mesh.normals.astype(float) @ R_model.T)
+        wo = normalize(self.camera.position[None, :] - p)
+        n = np.where(((n * wo).sum(axis=1) < 0)[:, None], -n, n)  # two-sided, as the shader
+        along = self.mesh.tangents.astype(float) @ R_model.T if not self.material.isotropic else np.array([1.0, 0.0, 0.0])
+        t = along - (along * n).sum(axis=-1, keepdims=True) * n
+        short = np.linalg.norm(t, axis=1) < 1e-6
+        t[short] = np.array([0.0, 0.0, 1.0]) - n[short, 2:3] * n[short]
+        t = normalize(t)
+        return np.stack([t, np.cross(n, t), n], axis=1), wo
+
+    def _vertex_light_texture(self, settings: RenderSettings) -> moderngl.Texture:
+        """Per-vertex SH data as a texture: the (shadowed) world lighting; for the fixed-light
+        variant that lighting in each vertex's frame; for the fixed-view variant each vertex's
+        colour (its BRDF vector turned to world, dotted with the lighting). Visibility is
+        computed once per mesh and order, the rest when the lighting or the view changes."""
+        from .. import sh
+        from ..sh_tables import cached_table, lookup
+        from .transfer import quadrature, transferred_lighting, vertex_visibility
+
+        light = self.sh_lighting(settings)[:, :3]
+        key = (id(self.mesh), self.sh_order)
+        entry = self._transfer.setdefault(key, {})
+        if self.sh_variant not in ("dynamic", "fixed-light", "fixed-view"):
+            raise BRDFLabError(f"unknown SH variant {self.sh_variant!r} (dynamic, fixed-light or fixed-view)")
+        if self.sh_shadows and "visibility" not in entry:
+            dirs, weights = quadrature(self.sh_order)
+            entry.update(dirs=dirs, weights=weights, visibility=vertex_visibility(self.ctx, self.mesh, dirs))
+        state = (self.sh_variant, self.sh_shadows, light.tobytes(), self.model_rotation.tobytes(),
+                 self.camera.position.tobytes() if self.sh_variant == "fixed-view" else b"")
+        if entry.get("state") != state:
+            if self.sh_shadows:
+                world = transferred_lighting(light, entry["visibility"], entry["dirs"], entry["weights"])
+            else:
+                world = np.broadcast_to(light, (self.mesh.n_vertices,) + light.shape)
+            if self.sh_variant == "dynamic":
+                data = np.asarray(world)
+            else:
+                R, wo = self._vertex_frames()
+                if self.sh_variant == "fixed-light":
+                    data = sh.rotate_many(np.asarray(world), R)
+                else:  # the view's BRDF vectors turned to world, kept while the view stays
+                    view = (self.camera.position.tobytes(), self.model_rotation.tobytes())
+                    if entry.get("view") != view:
+                        table = cached_table(self.source if self.source is not None else self.material, self.sh_order)
+                        c_local = lookup(table, np.einsum("vij,vj->vi", R, wo))[..., :3]
+                        entry["c_world"], entry["view"] = sh.rotate_many(c_local, np.transpose(R, (0, 2, 1))), view
+                    data = np.einsum("vic,vic->vc", entry["c_world"], world)[:, None, :]
+            n_vertices, stride = data.shape[0], data.shape[1]
+            rows = -(-n_vertices // VERTEX_ROW)
+            padded = np.zeros((rows * VERTEX_ROW, stride, 3), np.float32)
+            padded[:n_vertices] = data
+            if entry.get("texture") is not None:
+                entry["texture"].release()
+            tex = self.ctx.texture((stride * VERTEX_ROW, rows), 3,
+                                   np.ascontiguousarray(padded.reshape(rows, VERTEX_ROW * stride, 3)).tobytes(), dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            entry["texture"], entry["state"] = tex, state
+        return entry["texture"]
+
     def sh_lighting(self, settings: RenderSettings) -> np.ndarray:
         """World-frame lighting coefficients, with the environment's rotation applied."""
         from .. import sh
@@ -190,13 +265,28 @@ class ObjectRenderer:
         return light
 
     # --- programs -------------------------------------------------------------------------
+    def _shadowed(self, mode: str, reference: bool) -> bool:
+        """Whether the SH shading reads per-vertex data (shadows or a fixed variant)."""
+        return mode == "sh" and not reference and self.mesh is not None and (
+            self.sh_shadows or self.sh_variant != "dynamic")
+
     def _program(self, models: tuple[str, ...], mode: str, reference: bool, measured: bool = False) -> moderngl.Program:
-        key = (models, mode, reference, measured, self.sh_order if mode == "sh" else 0)
+        shadowed = self._shadowed(mode, reference)
+        key = (models, mode, reference, measured, self.sh_order if mode == "sh" else 0, shadowed,
+               self.sh_variant if shadowed else "")
         if key not in self._programs:
             defines = f"#define MODE_{mode.upper()}\n" + ("#define GEOMETRY_REFERENCE\n" if reference else "")
             material = material_source(models, measured)
             if mode == "sh":
                 defines += f"#define SH_ORDER {self.sh_order}\n"
+                if shadowed:
+                    stride = 1 if self.sh_variant == "fixed-view" else self.sh_order ** 2
+                    defines += (f"#define SH_VERTEX_LIGHT\n#define SH_VERTEX_ROW {VERTEX_ROW}\n"
+                                f"#define SH_VERTEX_STRIDE {stride}\n")
+                    if self.sh_variant == "fixed-light":
+                        defines += "#define SH_FIXED_LIGHT\n"
+                    elif self.sh_variant == "fixed-view":
+                        defines += "#define SH_FIXED_VIEW\n"
                 material += shader_source("sh.glsl")
             self._programs[key] = self.ctx.program(
                 vertex_shader=GLSL_VERSION + defines + shader_source("object_vertex.glsl"),
@@ -206,9 +296,12 @@ class ObjectRenderer:
 
     def _vao(self, program: moderngl.Program, key: tuple) -> moderngl.VertexArray:
         if key not in self._mesh_vao:
-            vbo, ibo = self._mesh_buffers
+            vbo, ibo, ids = self._mesh_buffers
+            content = [(vbo, "3f 3f 3f", "in_position", "in_normal", "in_tangent")]
+            if "in_vertex" in program:
+                content.append((ids, "i", "in_vertex"))
             self._mesh_vao[key] = self.ctx.vertex_array(
-                program, [(vbo, "3f 3f 3f", "in_position", "in_normal", "in_tangent")], index_buffer=ibo,
+                program, content, index_buffer=ibo,
                 index_element_size=4, skip_errors=True)  # attributes a program does not use are fine
         return self._mesh_vao[key]
 
@@ -252,6 +345,9 @@ class ObjectRenderer:
             _set(prog, "u_sh_rx_half", half)
             if "u_sh_light" in prog:
                 prog["u_sh_light"].write(np.ascontiguousarray(self.sh_lighting(settings)[:, :3], np.float32).tobytes())
+            if self._shadowed(settings.mode, reference):
+                self._vertex_light_texture(settings).use(5)
+                _set(prog, "u_sh_vertex_light", 5)
         if reference:
             self._empty_vao_for(prog).render(moderngl.TRIANGLES, vertices=3)
         else:
@@ -262,7 +358,7 @@ class ObjectRenderer:
             prog["u_model"].write(gl_matrix(model))
             _set(prog, "u_camera_position", tuple(float(x) for x in self.camera.position))
             _set(prog, "u_mesh_tangents", not self.material.isotropic)
-            self._vao(prog, (models, settings.mode, self.measured)).render(moderngl.TRIANGLES)
+            self._vao(prog, ("mesh", id(prog))).render(moderngl.TRIANGLES)  # one vertex array per program
 
     def _empty_vao_for(self, prog: moderngl.Program) -> moderngl.VertexArray:
         key = ("empty", id(prog))
