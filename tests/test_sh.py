@@ -245,3 +245,21 @@ def test_fixed_light_and_fixed_view_match_per_pixel_rotation(renderer, variant, 
     renderer.set_mesh(None)
     drawn = per_pixel.sum(axis=2) > 0
     assert relative_rmse(fixed, per_pixel, drawn) < tolerance
+
+
+def test_odd_sized_maps_project():
+    tiny = sh.project_environment(EnvironmentMap(np.full((3, 7, 3), 2.0, np.float32)), 5)
+    assert tiny[0, 0] == pytest.approx(4 * math.sqrt(math.pi), rel=1e-9)
+    odd = sh.project_environment(EnvironmentMap(np.full((51, 101, 3), 2.0, np.float32)), 5)
+    assert odd[0, 0] == pytest.approx(4 * math.sqrt(math.pi), rel=1e-9)
+    assert np.abs(odd[1:]).max() < 1e-6
+
+
+def test_order_beyond_the_maximum_is_a_clear_error(tmp_path, capsys):
+    from brdflab.cli import main
+    from brdflab.resources import data_dir
+
+    code = main(["render", str(data_dir("materials") / "lambertian.xml"), "--mode", "sh", "--sh-order", "40",
+                 "--size", "8,8", "--out", str(tmp_path / "o.png")])
+    err = capsys.readouterr().err
+    assert code == 2 and "SH order 40 is outside 1..16" in err and len(err.strip().splitlines()) == 1
