@@ -252,7 +252,7 @@ def test_odd_sized_maps_project():
     assert tiny[0, 0] == pytest.approx(4 * math.sqrt(math.pi), rel=1e-9)
     odd = sh.project_environment(EnvironmentMap(np.full((51, 101, 3), 2.0, np.float32)), 5)
     assert odd[0, 0] == pytest.approx(4 * math.sqrt(math.pi), rel=1e-9)
-    assert np.abs(odd[1:]).max() < 1e-6
+    assert np.abs(odd[1:]).max() < 1e-5  # 2-point Gauss rules per texel: ~4e-7 of c00
 
 
 def test_order_beyond_the_maximum_is_a_clear_error(tmp_path, capsys):
