@@ -11,6 +11,7 @@ in vec2 v_uv;
 uniform sampler2D u_image;
 uniform float u_scale;      // 2^exposure / samples
 uniform bool u_reinhard;
+uniform float u_gamma;      // 0: the sRGB curve; otherwise x^(1/gamma)
 uniform vec3 u_background;
 out vec4 frag;
 void main() {
@@ -20,6 +21,6 @@ void main() {
     if (u_reinhard) x = x / (1.0 + x);
     x = clamp(x, 0.0, 1.0);
     vec3 srgb = mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), x));
-    frag = vec4(srgb, 1.0);
+    frag = vec4(u_gamma > 0.0 ? pow(x, vec3(1.0 / u_gamma)) : srgb, 1.0);
 }
 #endif

@@ -124,6 +124,8 @@ def test_open_measured_fit_and_cancel(window, qtbot, tmp_path):
 
 
 def test_switch_lighting_modes(window, qtbot):
+    from PySide6.QtGui import QImage
+
     window.object_controls.sh_order.setValue(3)
     view = window.object_view
     for mode in ("point", "fis", "sh"):
@@ -140,6 +142,12 @@ def test_switch_lighting_modes(window, qtbot):
             view.doneCurrent()
             np.testing.assert_allclose(shown[::-1, :, :3], offscreen, atol=1e-5)
     assert not window.statusBar().currentMessage().startswith("building")
+    # the display transform: gamma 1 shows linear values, darker than sRGB for mid-tones
+    srgb = np.asarray(view.grabFramebuffer().convertToFormat(QImage.Format_RGB32).constBits()).copy()
+    window.object_controls.gamma.setValue(1.0)
+    qtbot.wait(200)
+    linear = np.asarray(view.grabFramebuffer().convertToFormat(QImage.Format_RGB32).constBits()).copy()
+    assert linear.astype(float).mean() < srgb.astype(float).mean()
 
 
 def test_corrupt_files_give_an_error_not_a_crash(window, qtbot, tmp_path):

@@ -149,6 +149,7 @@ class ObjectView(_GLView):
         self._table_job = None
         self.settings = RenderSettings(reference_view=False, samples=256)
         self.exposure = 0.0
+        self.gamma = 0.0  # 0: sRGB
         self.reinhard = False
         self._progressive = None
         self._timer = QTimer(self)
@@ -235,7 +236,7 @@ class ObjectView(_GLView):
             if not self._timer.isActive():
                 self._timer.start()
             return
-        self.display.draw(self._progressive, self.exposure, self.reinhard)
+        self.display.draw(self._progressive, self.exposure, self.reinhard, gamma=self.gamma)
 
     def resizeGL(self, w: int, h: int) -> None:
         if self._progressive is not None:

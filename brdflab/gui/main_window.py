@@ -361,6 +361,7 @@ class MainWindow(QMainWindow):
         s.env_rotation = c.rotation.spin.value()
         s.light = c.light()
         v.exposure = c.exposure.spin.value()
+        v.gamma = c.gamma.value()
         order, shadows, variant = c.sh_order.value(), c.sh_shadows.isChecked(), c.sh_variant.currentText()
 
         def apply_sh():

@@ -262,6 +262,7 @@ class ObjectControls(QWidget):
         self.sh_variant.addItems(["dynamic", "fixed-light", "fixed-view"])
         self.samples = QSpinBox(minimum=1, maximum=4096, value=256)
         self.exposure = ParameterRow(-8.0, 8.0, 0.0)
+        self.gamma = QDoubleSpinBox(minimum=0.0, maximum=4.0, value=0.0, singleStep=0.1, specialValueText="sRGB")
         self.rotation = ParameterRow(0.0, 359.0, 0.0)
         self.light_theta = ParameterRow(0.0, 89.0, 35.0)
         self.light_phi = ParameterRow(0.0, 359.0, 40.0)
@@ -277,6 +278,7 @@ class ObjectControls(QWidget):
         form.addRow("SH order", self.sh_order)
         form.addRow("SH variant", self.sh_variant)
         form.addRow("exposure (EV)", self.exposure)
+        form.addRow("gamma", self.gamma)
         form.addRow("environment rotation (°)", self.rotation)
         form.addRow("light θ (°)", self.light_theta)
         form.addRow("light φ (°)", self.light_phi)
@@ -290,6 +292,7 @@ class ObjectControls(QWidget):
         self.sh_order.valueChanged.connect(lambda _: self.changed.emit())
         self.show.currentIndexChanged.connect(lambda _: self.changed.emit())
         self.reinhard.toggled.connect(lambda _: self.changed.emit())
+        self.gamma.valueChanged.connect(lambda _: self.changed.emit())
         self.sh_shadows.toggled.connect(lambda _: self.changed.emit())
         self.sh_variant.currentIndexChanged.connect(lambda _: self.changed.emit())
         for row_ in (self.exposure, self.rotation, self.light_theta, self.light_phi):

@@ -532,11 +532,12 @@ class Display:
         self.vao = ctx.vertex_array(self.program, [])
 
     def draw(self, image: Progressive, exposure: float = 0.0, reinhard: bool = False,
-             background=(0.12, 0.12, 0.14)) -> None:
+             background=(0.12, 0.12, 0.14), gamma: float = 0.0) -> None:
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         image.texture.use(0)
         _set(self.program, "u_image", 0)
         _set(self.program, "u_scale", float(2.0**exposure / max(image.samples, 1)))
         _set(self.program, "u_reinhard", bool(reinhard))
+        _set(self.program, "u_gamma", float(gamma))
         _set(self.program, "u_background", tuple(background))
         self.vao.render(moderngl.TRIANGLES, vertices=3)
