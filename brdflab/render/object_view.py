@@ -20,7 +20,7 @@ from ..proxy import proxy_lobes
 from ..mesh import Mesh
 from .camera import OrbitCamera, gl_matrix
 from .glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
-from .sampling_sets import lobe_shares, sample_set
+from ..sampling_sets import lobe_shares, sample_set
 
 MODES = ("point", "fis", "sh")
 BATCH = 32  # samples per draw: keeps each draw short on software rasterisers
@@ -379,53 +379,19 @@ class ObjectRenderer:
         return Progressive(self, settings)
 
     def render(self, settings: RenderSettings) -> np.ndarray:
-        """Linear radiance (H, W, 3), row 0 at the top; 0 where nothing is drawn."""
-        w, h = settings.width, settings.height
-        color = self.ctx.texture((w, h), 4, dtype="f4")
-        depth = self.ctx.depth_renderbuffer((w, h))
-        fbo = self.ctx.framebuffer([color], depth)
+        """Linear radiance (H, W, 3), row 0 at the top; 0 where nothing is drawn: one step
+        of a progressive image with all the samples."""
+        image = Progressive(self, settings)
         try:
-            fbo.use()
-            self.ctx.viewport = (0, 0, w, h)
-            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            reference = settings.reference_view or self.mesh is None
-            _set_state(self.ctx, depth=not reference, blend=False)
-            self.ctx.depth_func = "<"
-            if settings.mode == "fis":
-                n = max(1, int(settings.samples))
-                tex = self.samples_texture(n)
-                if not reference:
-                    # depth pre-pass: additive batches must only shade the visible surface
-                    fbo.color_mask = (False, False, False, False)
-                    self.draw(settings, (0, 0), tex, n)
-                    fbo.color_mask = (True, True, True, True)
-                    fbo.depth_mask = False
-                    self.ctx.depth_func = "=="
-                _set_state(self.ctx, depth=not reference, blend=True)
-                self.ctx.blend_func = moderngl.ONE, moderngl.ONE
-                try:
-                    for begin in range(0, n, BATCH):
-                        self.draw(settings, (begin, min(n, begin + BATCH)), tex, n)
-                finally:
-                    self.ctx.disable(moderngl.BLEND)
-                    fbo.depth_mask = True
-                    self.ctx.depth_func = "<"
-                    tex.release()
-                scale = 1.0 / n
-            else:
-                self.draw(settings)
-                scale = 1.0
+            image.step(max(1, int(settings.samples)))
             self.ctx.finish()
-            img = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(h, w, 4)
+            raw = np.frombuffer(image.texture.read(), np.float32).reshape(settings.height, settings.width, 4)[::-1]
         finally:
-            fbo.release()
-            color.release()
-            depth.release()
-        out = np.ascontiguousarray(img[::-1, :, :3] * scale)
+            image.release()
+        out = np.ascontiguousarray(raw[:, :, :3] / image.samples)
         if settings.mode == "sh":
             # ringing can make the truncated integral negative: clamp it, and say how often
-            negative = (out < 0).any(axis=2) & (img[::-1, :, 3] > 0)
-            self.clamped_pixels = int(negative.sum())
+            self.clamped_pixels = int(((out < 0).any(axis=2) & (raw[:, :, 3] > 0)).sum())
             out = np.maximum(out, 0.0)
         return out
 
@@ -469,16 +435,11 @@ class Progressive:
             self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.viewport = (0, 0, s.width, s.height)
         reference = s.reference_view or r.mesh is None
-        if s.mode in ("point", "sh"):  # deterministic: one draw
+        if s.mode in ("point", "sh"):  # deterministic: one depth-tested draw
             if self.steps == 0:
-                if reference:
-                    _set_state(ctx, depth=False, blend=False)
-                    r.draw(s)
-                else:
-                    self._depth_prepass(s)
-                    r.draw(s)
-                    self.fbo.depth_mask = True
-                    ctx.depth_func = "<"
+                _set_state(ctx, depth=not reference, blend=False)
+                ctx.depth_func = "<"
+                r.draw(s)
                 self.samples = 1
         else:
             rotation = None if self.steps == 0 else self._rng.random(2)
@@ -504,7 +465,7 @@ class Progressive:
             self.samples += samples
         self.steps += 1
 
-    def _depth_prepass(self, s: RenderSettings, tex=None, footprint: int = 1) -> None:
+    def _depth_prepass(self, s: RenderSettings, tex, footprint: int) -> None:
         """Lay down the visible surface's depth, then leave the test at '==' with depth
         writes off, so that the shading draws touch only the front-most fragments."""
         ctx = self.renderer.ctx
@@ -533,7 +494,7 @@ class Display:
 
     def draw(self, image: Progressive, exposure: float = 0.0, reinhard: bool = False,
              background=(0.12, 0.12, 0.14), gamma: float = 0.0) -> None:
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        _set_state(self.ctx, depth=False, blend=False)
         image.texture.use(0)
         _set(self.program, "u_image", 0)
         _set(self.program, "u_scale", float(2.0**exposure / max(image.samples, 1)))
