@@ -17,6 +17,7 @@ from . import sh
 from .errors import BRDFLabError
 from .material import AnalyticMaterial
 from .proxy import proxy_lobes
+from .sampling_sets import lobe_shares, sample_set
 
 DEFAULT_SIZE = 128
 
@@ -40,17 +41,6 @@ def _sobol(n_log2: int) -> np.ndarray:
     return qmc.Sobol(d=2, scramble=True, seed=11).random_base2(n_log2)
 
 
-def _mixture(proxy: AnalyticMaterial, n: int):
-    """Per-sample lobe index (stratified by the lobes' shares) and the shares."""
-    from .render.sampling_sets import lobe_shares
-
-    shares = lobe_shares(proxy, floor=0.05)
-    counts = np.maximum(np.round(shares * n).astype(int), 1)
-    counts[np.argmax(counts)] += n - counts.sum()
-    lobe_of = np.repeat(np.arange(len(counts)), counts)
-    return lobe_of, counts / n
-
-
 def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int = 8, chunk: int = 512) -> np.ndarray:
     """c (size, size, order², C) for every texel of the parabolic view map."""
     order = sh.check_order(order)
@@ -61,7 +51,9 @@ def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int =
         raise BRDFLabError("the material has no lobes to tabulate")
     u = _sobol(samples_log2)
     n = len(u)
-    lobe_of, fractions = _mixture(proxy, n)
+    split, fractions = sample_set(lobe_shares(proxy), n)
+    # each lobe takes a contiguous block of the Sobol' points (better stratified than interleaved)
+    lobe_of = np.sort(split[:, 2].astype(int))
     n_ch = source.n_channels
     out = np.zeros((len(views), order * order, n_ch))
     for start in range(0, len(views), chunk):
