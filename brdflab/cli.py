@@ -8,8 +8,10 @@ status 2 (never a traceback).
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -85,7 +87,6 @@ def cmd_eval(args: argparse.Namespace) -> int:
     values = source.evaluate(wi, wo)
     out = Path(args.out)
     from .xmlio import atomic_write
-    import io
 
     buf = io.BytesIO()
     np.save(buf, values)
@@ -118,12 +119,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
                          time_limit=args.time_limit, restarts=args.restarts)
     if args.init:
         options.coarse_size = 0  # continuing a stored fit: it is already near the optimum of all samples
-    t0 = __import__("time").perf_counter()
+    t0 = time.perf_counter()
     show = sys.stderr.isatty() and not args.json
 
     def progress(p):
         if show:
-            elapsed = __import__("time").perf_counter() - t0
+            elapsed = time.perf_counter() - t0
             print(f"\r{p.stage:>6} iteration {p.iteration:4d}  {options.metric} error {p.error:.6g}  {elapsed:6.2f} s",
                   end="", file=sys.stderr, flush=True)
 
@@ -156,8 +157,6 @@ def _vector(text: str, n: int, what: str) -> tuple[float, ...]:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    import time
-
     from .envmap import load_environment, write_exr
     from .mesh import default_mesh, load_mesh
     from .render.context import create_context

@@ -8,7 +8,7 @@ from .errors import BRDFLabError
 from .fit import FitResult, material_from_lobes
 from .material import AnalyticMaterial
 from .measured import MeasuredTable, RawSamples
-from .sources import is_xml, load_source
+from .sources import is_xml
 from .xmlio import BRDFDocument, Fitting, MeasuredReference, load
 
 
@@ -50,10 +50,13 @@ def document_for(source_path: Path, source) -> BRDFDocument:
     raise BRDFLabError("cannot store a fit of this source", source_path)
 
 
-def append_fitting(doc: BRDFDocument, result: FitResult, optimizer: str = "LevenbergMarquardt") -> Fitting:
-    fitting = Fitting(result.material, result.error, False, optimizer, result.statistics())
+def fitting_of(result: FitResult, optimizer: str = "LevenbergMarquardt") -> Fitting:
+    """The <Fitting> that stores a fit result."""
+    return Fitting(result.material, result.error, False, optimizer, result.statistics())
+
+
+def append_fitting(doc: BRDFDocument, result: FitResult) -> Fitting:
+    fitting = fitting_of(result)
     doc.fittings.append(fitting)
     return fitting
 
-
-__all__ = ["initial_material", "document_for", "append_fitting", "load_source"]

@@ -14,7 +14,8 @@ from .. import workspace as ws_ops
 from ..envmap import load_environment
 from ..errors import BRDFLabError
 from ..fit import FitOptions, FitProgress, FitResult, fit, material_from_lobes
-from ..fitting_io import append_fitting
+from ..fitting_io import fitting_of
+from ..mesh import FORMATS as MESH_FORMATS
 from ..mesh import default_mesh, load_mesh
 from ..resources import data_dir
 from ..samples import samples_of
@@ -426,13 +427,16 @@ class MainWindow(QMainWindow):
 
         self._load("material", path, Workspace.open, apply)
 
-    def open_dialog(self) -> None:
-        if not self.maybe_save():
-            return
-        name, _ = QFileDialog.getOpenFileName(self, "Open", self._folder("open"), OPEN_FILTER)
+    def _ask_and_open(self, title: str, kind: str, file_filter: str, opener) -> None:
+        """A file dialog that starts in (and remembers) the last folder of its kind."""
+        name, _ = QFileDialog.getOpenFileName(self, title, self._folder(kind), file_filter)
         if name:
-            self.settings.setValue("folders/open", str(Path(name).parent))
-            self.open_path(Path(name))
+            self.settings.setValue(f"folders/{kind}", str(Path(name).parent))
+            opener(Path(name))
+
+    def open_dialog(self) -> None:
+        if self.maybe_save():
+            self._ask_and_open("Open", "open", OPEN_FILTER, self.open_path)
 
     def open_mesh(self, path: Path) -> None:
         def apply(mesh) -> None:
@@ -443,10 +447,7 @@ class MainWindow(QMainWindow):
         self._load("mesh", path, load_mesh, apply)
 
     def open_mesh_dialog(self) -> None:
-        name, _ = QFileDialog.getOpenFileName(self, "Open mesh", self._folder("mesh"), "Meshes (*.obj *.ply *.stl *.off *.glb *.gltf)")
-        if name:
-            self.settings.setValue("folders/mesh", str(Path(name).parent))
-            self.open_mesh(Path(name))
+        self._ask_and_open("Open mesh", "mesh", "Meshes (" + " ".join(f"*{e}" for e in MESH_FORMATS) + ")", self.open_mesh)
 
     def open_environment(self, path: Path) -> None:
         def apply(env) -> None:
@@ -457,10 +458,7 @@ class MainWindow(QMainWindow):
         self._load("environment", path, load_environment, apply)
 
     def open_environment_dialog(self) -> None:
-        name, _ = QFileDialog.getOpenFileName(self, "Open environment", self._folder("env"), "HDR maps (*.hdr *.exr)")
-        if name:
-            self.settings.setValue("folders/env", str(Path(name).parent))
-            self.open_environment(Path(name))
+        self._ask_and_open("Open environment", "env", "HDR maps (*.hdr *.exr)", self.open_environment)
 
     def save(self) -> bool:
         if self.workspace.path is None:
@@ -511,7 +509,7 @@ class MainWindow(QMainWindow):
         for url in event.mimeData().urls():
             path = Path(url.toLocalFile())
             ext = path.suffix.lower()
-            if ext in (".obj", ".ply", ".stl", ".off", ".glb", ".gltf"):
+            if ext in MESH_FORMATS:
                 self.open_mesh(path)
             elif ext in (".hdr", ".exr"):
                 self.open_environment(path)
@@ -588,10 +586,7 @@ class MainWindow(QMainWindow):
     def _fit_finished(self, result: FitResult) -> None:
         self._end_fit()
         old = (tuple(self.workspace.document.fittings), self.workspace.shown_fit)
-        new_list = list(old[0])
-        from ..xmlio import Fitting
-
-        new_list.append(Fitting(result.material, result.error, False, "LevenbergMarquardt", result.statistics()))
+        new_list = list(old[0]) + [fitting_of(result)]
         self.undo_stack.push(ReplaceFittings(self, old, (tuple(new_list), len(new_list) - 1), "Fit"))
         self.fitting.status.setText(f"{result.metric} error {result.error:.6g} after {result.iterations} iterations, "
                                     f"{result.seconds:.2f} s ({result.status})")
