@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.fit import FitOptions, fit, material_from_lobes, restart_guesses
-from brdflab.material import AnalyticMaterial, Lobe
-from brdflab.measured import read_merl_binary, read_slice, write_merl_binary
-from brdflab.metrics import metric_error
+from brdflab.fitting.lm import FitOptions, fit, material_from_lobes, restart_guesses
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.sources.measured import read_merl_binary, read_slice, write_merl_binary
+from brdflab.fitting.metrics import metric_error
 from brdflab.models import get_model
-from brdflab.samples import samples_of
+from brdflab.fitting.samples import samples_of
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 SLICES = DATA / "merl_slices"

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BRDFLabError
+from brdflab.errors import BRDFLabError
 
 
 def _emit(args: argparse.Namespace, payload: dict, human: str) -> None:
@@ -39,7 +39,7 @@ def _json_default(o):
 # --- commands ---------------------------------------------------------------------------
 
 def cmd_models(args: argparse.Namespace) -> int:
-    from .models import all_models
+    from brdflab.models import all_models
 
     models = [m.describe() for m in all_models()]
     lines = []
@@ -52,7 +52,7 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from .sources import describe_file
+    from brdflab.sources.files import describe_file
 
     info = describe_file(Path(args.file))
     for w in info.get("warnings", []):
@@ -62,7 +62,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from .sources import load_source
+    from brdflab.sources.files import load_source
 
     pairs_path = Path(args.pairs)
     try:
@@ -86,7 +86,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     source = load_source(Path(args.material), fitting=args.fitting)
     values = source.evaluate(wi, wo)
     out = Path(args.out)
-    from .xmlio import atomic_write
+    from brdflab.io.xmlio import atomic_write
 
     buf = io.BytesIO()
     np.save(buf, values)
@@ -102,11 +102,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
 def cmd_fit(args: argparse.Namespace) -> int:
     import threading
 
-    from .fit import FitOptions, fit
-    from .fitting_io import append_fitting, document_for, initial_material
-    from .samples import samples_of
-    from .sources import load_source
-    from .xmlio import save
+    from brdflab.fitting.lm import FitOptions, fit
+    from brdflab.fitting.stored import append_fitting, document_for, initial_material
+    from brdflab.fitting.samples import samples_of
+    from brdflab.sources.files import load_source
+    from brdflab.io.xmlio import save
 
     source_path = Path(args.source)
     source = load_source(source_path, fitting=args.fitting)
@@ -157,13 +157,13 @@ def _vector(text: str, n: int, what: str) -> tuple[float, ...]:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from .envmap import load_environment, write_exr
-    from .mesh import default_mesh, load_mesh
-    from .render.context import create_context
-    from .render.object_view import ObjectRenderer, RenderSettings
-    from .resources import data_dir
-    from .sources import load_source
-    from .tonemap import write_png
+    from brdflab.lighting.envmap import load_environment, write_exr
+    from brdflab.io.mesh import default_mesh, load_mesh
+    from brdflab.render.context import create_context
+    from brdflab.render.object_view import ObjectRenderer, RenderSettings
+    from brdflab.io.resources import data_dir
+    from brdflab.sources.files import load_source
+    from brdflab.lighting.tonemap import write_png
 
     out = Path(args.out)
     if out.suffix.lower() not in (".exr", ".png"):
@@ -214,7 +214,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from .bench import run
+    from brdflab.study.bench import run
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -228,7 +228,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_gui(args: argparse.Namespace) -> int:
-    from .gui.app import run
+    from brdflab.gui.app import run
 
     return run(getattr(args, "file", None))
 

@@ -9,18 +9,18 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import BRDFLabError
-from .material import AnalyticMaterial, Lobe
-from .measured import read_measured
-from .sources import is_xml, resolve_measured
-from .xmlio import BRDFDocument, Fitting, MeasuredReference, load, save
+from brdflab.errors import BRDFLabError
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.sources.measured import read_measured
+from brdflab.sources.files import is_xml, resolve_measured
+from brdflab.io.xmlio import BRDFDocument, Fitting, MeasuredReference, load, save
 
 OPEN_FILTER = "Materials and measurements (*.xml *.binary *.slice *.txt *.csv *.carpaint *.bin);;All files (*)"
 
 
 def default_material() -> AnalyticMaterial:
     """The embedded default scene's material: Lambertian + isotropic Lafortune (BRDFLab Fig. 2)."""
-    from .resources import data_dir
+    from brdflab.io.resources import data_dir
 
     return load(data_dir("materials") / "fig2_lambertian_lafortune.xml").material
 

@@ -10,8 +10,8 @@ import pytest
 
 from brdflab.cli import main
 from brdflab.models import model_names
-from brdflab.resources import data_dir
-from brdflab.xmlio import load
+from brdflab.io.resources import data_dir
+from brdflab.io.xmlio import load
 from test_xml import ORIGINAL, directions
 
 FIG2 = data_dir("materials") / "fig2_lambertian_lafortune.xml"

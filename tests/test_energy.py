@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from brdflab.albedo import conserve_energy, directional_albedo, energy_check, lobe_albedo
-from brdflab.material import AnalyticMaterial, Lobe
-from brdflab.vec import spherical_to_cartesian
+from brdflab.material.albedo import conserve_energy, directional_albedo, energy_check, lobe_albedo
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.geometry.vec import spherical_to_cartesian
 
 
 def lambert(rho, channels=3):

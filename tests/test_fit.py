@@ -11,11 +11,11 @@ import pytest
 
 from brdflab.cli import main
 from brdflab.errors import BRDFLabError
-from brdflab.fit import FitOptions, fit, material_from_lobes
-from brdflab.material import AnalyticMaterial, Lobe
-from brdflab.measured import MeasuredTable, read_slice, tabulate, write_merl_binary
-from brdflab.samples import TableSampleSet, analytic_grid, samples_of
-from brdflab.xmlio import load
+from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.sources.measured import MeasuredTable, read_slice, tabulate, write_merl_binary
+from brdflab.fitting.samples import TableSampleSet, analytic_grid, samples_of
+from brdflab.io.xmlio import load
 from conftest import DATA, needs_shared
 
 
@@ -117,7 +117,7 @@ def published_material(row):
 @needs_shared("tables", "ngan2005_lafortune_fits.csv")
 @pytest.mark.parametrize("name", ["nickel", "white-paint", "blue-fabric", "red-specular-plastic"])
 def test_real_slices_fit_better_than_published(name):
-    from brdflab.metrics import metric_error
+    from brdflab.fitting.metrics import metric_error
 
     rows = {r["material"]: r for r in csv.DictReader(open(DATA / "tables" / "ngan2005_lafortune_fits.csv"))}
     table = read_slice(DATA / "merl_slices" / f"{name}.slice")
@@ -131,7 +131,7 @@ def test_real_slices_fit_better_than_published(name):
 
 
 def test_cancel_keeps_the_best_so_far(linear_table):
-    from brdflab.metrics import metric_error
+    from brdflab.fitting.metrics import metric_error
 
     cancel = threading.Event()
     seen = []
@@ -169,7 +169,7 @@ def test_extreme_starting_points_never_give_nan():
 
 
 def test_compression_still_reports_the_named_metric():
-    from brdflab.metrics import metric_error
+    from brdflab.fitting.metrics import metric_error
 
     truth = truth_linear()
     samples = analytic_grid(truth, 24)

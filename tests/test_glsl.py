@@ -5,10 +5,10 @@ import zlib
 import numpy as np
 import pytest
 
-from brdflab.material import AnalyticMaterial, Lobe
+from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import all_models
 from brdflab.render.glsl import GLSL_VERSION, lobe_uniforms, material_source, set_uniforms
-from brdflab.resources import shader_path
+from brdflab.io.resources import shader_path
 from conftest import random_upper
 
 VERTEX = """

@@ -81,8 +81,8 @@ def test_save_and_reopen(window, qtbot, tmp_path):
 
 
 def test_open_measured_fit_and_cancel(window, qtbot, tmp_path):
-    from brdflab.material import AnalyticMaterial, Lobe
-    from brdflab.measured import tabulate, write_merl_binary
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+    from brdflab.sources.measured import tabulate, write_merl_binary
 
     truth = AnalyticMaterial("t", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
                                                 Lobe.create("CookTorrance", [0.5] * 3, m=0.2, F0=0.3)])

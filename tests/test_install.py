@@ -22,7 +22,7 @@ def test_installed_package_finds_its_data(tmp_path):
     )
     shutil.rmtree(src)  # nothing may point back into a checkout
     code = (
-        "import json, brdflab, brdflab.resources as r;"
+        "import json, brdflab, brdflab.io.resources as r;"
         "print(json.dumps({'pkg': brdflab.__file__, 'shaders': str(r.data_dir('shaders')),"
         " 'materials': [p.name for p in r.example_materials()],"
         " 'resources': str(r.data_dir('resources'))}))"

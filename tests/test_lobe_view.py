@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from brdflab.geodesic import geodesic_hemisphere
-from brdflab.material import AnalyticMaterial, Lobe
-from brdflab.measured import tabulate
+from brdflab.geometry.geodesic import geodesic_hemisphere
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.sources.measured import tabulate
 from brdflab.render.lobe_view import LobeViewer
 
 
@@ -82,8 +82,8 @@ def test_transfer_functions_and_channels(viewer):
 
 def test_sharing_a_context_with_the_object_view(viewer):
     """The object view's depth pre-pass must not leave state that hides the lobes."""
-    from brdflab.envmap import constant
-    from brdflab.mesh import uv_sphere
+    from brdflab.lighting.envmap import constant
+    from brdflab.io.mesh import uv_sphere
     from brdflab.render.object_view import ObjectRenderer, RenderSettings
 
     objects = ObjectRenderer(viewer.ctx)

@@ -7,9 +7,9 @@ import pytest
 
 from brdflab.cli import main
 from brdflab.errors import BRDFLabError
-from brdflab.halfdiff import from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin
-from brdflab.material import AnalyticMaterial, Lobe
-from brdflab.measured import (
+from brdflab.geometry.halfdiff import from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.sources.measured import (
     MERL_SCALE,
     read_carpaint,
     read_measured,
@@ -187,7 +187,7 @@ def test_changed_data_file_is_noticed(tmp_path, merl_file, capsys):
     data = tmp_path / "m.binary"
     shutil.copy(merl_file, data)
     xml = tmp_path / "m.xml"
-    from brdflab.xmlio import BRDFDocument, MeasuredReference, save
+    from brdflab.io.xmlio import BRDFDocument, MeasuredReference, save
 
     ref = MeasuredReference("MERLBRDFDatabase", "m.binary", tmp_path)
     ref.sha256 = ref.current_sha256()
@@ -217,7 +217,7 @@ def test_sources_say_where_they_are_defined(merl_file, tmp_path):
     # a workspace notices a data file that changed since its fits were recorded
     import shutil
 
-    from brdflab.xmlio import BRDFDocument, MeasuredReference, save
+    from brdflab.io.xmlio import BRDFDocument, MeasuredReference, save
 
     data = tmp_path / "d.binary"
     shutil.copy(merl_file, data)

@@ -5,13 +5,13 @@ import json
 import numpy as np
 import pytest
 
-from brdflab.albedo import directional_albedo
+from brdflab.material.albedo import directional_albedo
 from brdflab.cli import main
-from brdflab.envmap import constant, load_environment, read_exr
-from brdflab.material import AnalyticMaterial, Lobe
-from brdflab.measured import read_slice
-from brdflab.mesh import from_arrays, uv_sphere
-from brdflab.reference_view import environment_image, point_light_image, relative_rmse, sphere_view
+from brdflab.lighting.envmap import constant, load_environment, read_exr
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.sources.measured import read_slice
+from brdflab.io.mesh import from_arrays, uv_sphere
+from brdflab.lighting.reference_view import environment_image, point_light_image, relative_rmse, sphere_view
 from brdflab.render.object_view import ObjectRenderer, RenderSettings
 from conftest import DATA, needs_shared
 
@@ -98,7 +98,7 @@ def test_mesh_hidden_surfaces_are_not_summed(renderer):
 
 def test_render_command_reference_exr(tmp_path, capsys):
     out = tmp_path / "img.exr"
-    from brdflab.resources import data_dir
+    from brdflab.io.resources import data_dir
 
     mat = data_dir("materials") / "ward.xml"
     code = main(["render", str(mat), "--mode", "point", "--view", "reference", "--light", "0,1,1",
@@ -107,7 +107,7 @@ def test_render_command_reference_exr(tmp_path, capsys):
     payload = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert payload["settings"]["size"] == [40, 30] and payload["frame_ms"] > 0
     img = read_exr(out)
-    from brdflab.xmlio import load
+    from brdflab.io.xmlio import load
 
     ref = point_light_image(load(mat).material, 40, 30, (0, 1, 1))
     ok = ref > 1e-4 * ref.max()
@@ -115,7 +115,7 @@ def test_render_command_reference_exr(tmp_path, capsys):
 
 
 def test_render_command_png_on_a_mesh(tmp_path, capsys):
-    from brdflab.resources import data_dir
+    from brdflab.io.resources import data_dir
 
     out = tmp_path / "img.png"
     code = main(["render", str(data_dir("materials") / "fig2_lambertian_lafortune.xml"), "--mode", "fis",
@@ -135,7 +135,7 @@ def test_render_command_png_on_a_mesh(tmp_path, capsys):
 def test_bad_environment_maps(tmp_path, capsys, setup, message):
     env = tmp_path / "bad.hdr"
     setup(env)
-    from brdflab.resources import data_dir
+    from brdflab.io.resources import data_dir
 
     code = main(["render", str(data_dir("materials") / "lambertian.xml"), "--mode", "fis", "--env", str(env),
                  "--size", "8,8", "--out", str(tmp_path / "o.png")])
@@ -146,7 +146,7 @@ def test_bad_environment_maps(tmp_path, capsys, setup, message):
 def test_corrupt_exr(tmp_path, capsys):
     env = tmp_path / "bad.exr"
     env.write_bytes(b"v/1\x01" + b"\0" * 64)
-    from brdflab.resources import data_dir
+    from brdflab.io.resources import data_dir
 
     code = main(["render", str(data_dir("materials") / "lambertian.xml"), "--mode", "fis", "--env", str(env),
                  "--size", "8,8", "--out", str(tmp_path / "o.png")])
@@ -162,7 +162,7 @@ def test_corrupt_exr(tmp_path, capsys):
 def test_bad_meshes(tmp_path, capsys, text, message):
     mesh = tmp_path / "bad.obj"
     mesh.write_text(text)
-    from brdflab.resources import data_dir
+    from brdflab.io.resources import data_dir
 
     code = main(["render", str(data_dir("materials") / "lambertian.xml"), "--mesh", str(mesh), "--size", "8,8",
                  "--out", str(tmp_path / "o.png")])
@@ -191,7 +191,7 @@ def test_no_opengl_is_a_clear_error(monkeypatch, tmp_path, capsys):
         raise Exception("libEGL not found")
 
     monkeypatch.setattr(moderngl, "create_standalone_context", broken)
-    from brdflab.resources import data_dir
+    from brdflab.io.resources import data_dir
 
     code = main(["render", str(data_dir("materials") / "lambertian.xml"), "--size", "8,8", "--out", str(tmp_path / "o.png")])
     err = capsys.readouterr().err

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from brdflab.models import all_models
-from brdflab.vec import spherical_to_cartesian
+from brdflab.geometry.vec import spherical_to_cartesian
 
 SAMPLABLE = [m for m in all_models() if m.samplable]
 

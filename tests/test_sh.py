@@ -5,13 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from brdflab import sh
-from brdflab.envmap import EnvironmentMap, load_environment
+from brdflab.lighting import sh
+from brdflab.lighting.envmap import EnvironmentMap, load_environment
 from brdflab.errors import BRDFLabError
-from brdflab.material import AnalyticMaterial, Lobe
-from brdflab.reference_view import environment_image, relative_rmse, sphere_view
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
 from brdflab.render.object_view import ObjectRenderer, RenderSettings
-from brdflab.sh_tables import brdf_table
+from brdflab.lighting.sh_tables import brdf_table
 from conftest import DATA, needs_shared
 
 
@@ -136,11 +136,11 @@ def test_sh_render_converges_to_quadrature(renderer, name, material):
 
 
 def test_rotating_the_lighting_equals_rotating_object_and_camera(renderer):
-    from brdflab.mesh import default_mesh
+    from brdflab.io.mesh import default_mesh
 
     env = load_environment(DATA / "envmaps" / "venice_sunset_1k.hdr") if (DATA / "envmaps").exists() else None
     if env is None:
-        from brdflab.resources import data_dir
+        from brdflab.io.resources import data_dir
 
         env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr")
     renderer.set_environment(env.downsampled(128, 64))
@@ -163,7 +163,7 @@ def test_rotating_the_lighting_equals_rotating_object_and_camera(renderer):
 
 
 def test_ringing_is_clamped_and_reported(renderer):
-    from brdflab.envmap import constant
+    from brdflab.lighting.envmap import constant
 
     env = constant(0.0, 64, 32)
     env.data[10:12, 30:32] = 5000.0  # a tiny, very bright light
@@ -183,8 +183,8 @@ def test_quadrature_makes_full_visibility_an_identity():
 
 
 def test_self_shadowing_sphere_and_concave_mesh(renderer):
-    from brdflab.envmap import constant
-    from brdflab.mesh import from_arrays, uv_sphere
+    from brdflab.lighting.envmap import constant
+    from brdflab.io.mesh import from_arrays, uv_sphere
 
     renderer.set_environment(constant(1.0, 64, 32))
     renderer.set_source(AnalyticMaterial("d", "Linear", 3, [Lobe.create("Lambertian", [0.25] * 3)]))
@@ -228,8 +228,8 @@ def test_self_shadowing_sphere_and_concave_mesh(renderer):
 
 @pytest.mark.parametrize("variant, tolerance", [("fixed-light", 0.02), ("fixed-view", 0.05)])
 def test_fixed_light_and_fixed_view_match_per_pixel_rotation(renderer, variant, tolerance):
-    from brdflab.mesh import uv_sphere
-    from brdflab.resources import data_dir
+    from brdflab.io.mesh import uv_sphere
+    from brdflab.io.resources import data_dir
 
     renderer.set_environment(load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"))
     renderer.set_source(AnalyticMaterial("g", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
@@ -257,7 +257,7 @@ def test_odd_sized_maps_project():
 
 def test_order_beyond_the_maximum_is_a_clear_error(tmp_path, capsys):
     from brdflab.cli import main
-    from brdflab.resources import data_dir
+    from brdflab.io.resources import data_dir
 
     code = main(["render", str(data_dir("materials") / "lambertian.xml"), "--mode", "sh", "--sh-order", "40",
                  "--size", "8,8", "--out", str(tmp_path / "o.png")])

@@ -6,11 +6,11 @@ import os
 import numpy as np
 import pytest
 
-from brdflab import xmlio
+from brdflab.io import xmlio
 from brdflab.errors import BRDFLabError
 from brdflab.models import get_model
-from brdflab.resources import example_materials
-from brdflab.vec import spherical_to_cartesian
+from brdflab.io.resources import example_materials
+from brdflab.geometry.vec import spherical_to_cartesian
 
 # A file as the original BRDFLab (2009) wrote it, following its description: empty
 # <Parameters/> on a Linear Lambertian lobe, Ward with ax alone, Ashikhmin–Shirley with

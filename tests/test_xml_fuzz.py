@@ -3,9 +3,9 @@
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from brdflab import xmlio
+from brdflab.io import xmlio
 from brdflab.errors import BRDFLabError
-from brdflab.resources import example_materials
+from brdflab.io.resources import example_materials
 from test_xml import ORIGINAL
 
 SEEDS = [ORIGINAL] + [p.read_bytes() for p in example_materials()]

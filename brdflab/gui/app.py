@@ -10,8 +10,8 @@ def run(path: str | None = None) -> int:
     """Open the main window on `path`, or on the embedded default scene."""
     from PySide6.QtWidgets import QApplication
 
-    from .gl_views import set_default_surface_format
-    from .main_window import MainWindow
+    from brdflab.gui.gl_views import set_default_surface_format
+    from brdflab.gui.main_window import MainWindow
 
     set_default_surface_format()
     app = QApplication.instance() or QApplication(sys.argv[:1])

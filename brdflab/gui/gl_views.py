@@ -9,9 +9,9 @@ from PySide6.QtCore import QPointF, Qt, QTimer, Signal
 from PySide6.QtGui import QOpenGLContext, QSurfaceFormat
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
 
-from ..errors import BRDFLabError
-from ..render.lobe_view import LobeViewer
-from ..render.object_view import Display, ObjectRenderer, RenderSettings
+from brdflab.errors import BRDFLabError
+from brdflab.render.lobe_view import LobeViewer
+from brdflab.render.object_view import Display, ObjectRenderer, RenderSettings
 
 
 def set_default_surface_format() -> None:
@@ -179,7 +179,7 @@ class ObjectView(_GLView):
 
     def _table_pending(self) -> bool:
         """SH mode: build the BRDF table in a worker thread; True while it is not ready."""
-        from ..sh_tables import cached_table
+        from brdflab.lighting.sh_tables import cached_table
 
         r = self.renderer
         if self._table_job is not None and self._table_job.done():

@@ -10,19 +10,19 @@ from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence, QUndoCommand, QUndoStack
 from PySide6.QtWidgets import QDockWidget, QFileDialog, QMainWindow, QMessageBox, QProgressBar
 
-from .. import workspace as ws_ops
-from ..envmap import load_environment
-from ..errors import BRDFLabError
-from ..fit import FitOptions, FitProgress, FitResult, fit, material_from_lobes
-from ..fitting_io import fitting_of
-from ..mesh import FORMATS as MESH_FORMATS
-from ..mesh import default_mesh, load_mesh
-from ..resources import data_dir
-from ..samples import samples_of
-from ..workspace import OPEN_FILTER, Workspace
-from ..xmlio import to_bytes
-from .gl_views import LobeView, ObjectView
-from .panels import FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView
+from brdflab import workspace as ws_ops
+from brdflab.lighting.envmap import load_environment
+from brdflab.errors import BRDFLabError
+from brdflab.fitting.lm import FitOptions, FitProgress, FitResult, fit, material_from_lobes
+from brdflab.fitting.stored import fitting_of
+from brdflab.io.mesh import FORMATS as MESH_FORMATS
+from brdflab.io.mesh import default_mesh, load_mesh
+from brdflab.io.resources import data_dir
+from brdflab.fitting.samples import samples_of
+from brdflab.workspace import OPEN_FILTER, Workspace
+from brdflab.io.xmlio import to_bytes
+from brdflab.gui.gl_views import LobeView, ObjectView
+from brdflab.gui.panels import FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView
 
 DEFAULT_MESH = "meshes/spot.obj"
 DEFAULT_ENV = "envmaps/venice_sunset_1k.hdr"

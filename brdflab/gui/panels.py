@@ -28,10 +28,10 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from ..albedo import energy_check
-from ..fit import METRICS
-from ..material import AnalyticMaterial
-from ..models import model_names
+from brdflab.material.albedo import energy_check
+from brdflab.fitting.lm import METRICS
+from brdflab.material.analytic import AnalyticMaterial
+from brdflab.models import model_names
 
 CHANNEL_COLORS = ("#d04040", "#40a040", "#4060d0")
 SLIDER_STEPS = 1000
@@ -394,9 +394,9 @@ class PlotsPanel(QWidget):
         QVBoxLayout(self).addWidget(self.canvas)
 
     def show_sources(self, original, fitted, theta_i_deg: float) -> None:
-        from ..albedo import directional_albedo
-        from ..halfdiff import from_half_diff
-        from ..vec import spherical_to_cartesian
+        from brdflab.material.albedo import directional_albedo
+        from brdflab.geometry.halfdiff import from_half_diff
+        from brdflab.geometry.vec import spherical_to_cartesian
 
         self.figure.clear()
         ax1 = self.figure.add_subplot(1, 3, 1, projection="polar")

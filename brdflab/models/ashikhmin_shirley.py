@@ -2,16 +2,16 @@
 
 import numpy as np
 
-from ..sampling import (
+from brdflab.geometry.sampling import (
     ashikhmin_shirley_exponent,
     ashikhmin_shirley_half_pdf,
     ashikhmin_shirley_half_vector,
     half_vector_pdf,
     reflect,
 )
-from ..vec import dot, half_vector, schlick
-from .base import CosineSampled, LobeModel, Parameter
-from .registry import register
+from brdflab.geometry.vec import dot, half_vector, schlick
+from brdflab.models.base import CosineSampled, LobeModel, Parameter
+from brdflab.models.registry import register
 
 _EXP = dict(lower=0.0, upper=100000.0, unit="1", log=True)
 

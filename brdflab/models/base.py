@@ -14,7 +14,7 @@ from typing import ClassVar, Mapping
 
 import numpy as np
 
-from ..vec import upper_hemisphere
+from brdflab.geometry.vec import upper_hemisphere
 
 ParamValues = Mapping[str, "float | np.ndarray"]
 
@@ -163,11 +163,11 @@ class CosineSampled(LobeModel):
     sampling = "cosine-weighted hemisphere"
 
     def _sample(self, wo, u, p):
-        from ..sampling import cosine_hemisphere
+        from brdflab.geometry.sampling import cosine_hemisphere
 
         return cosine_hemisphere(np.broadcast_to(u, np.broadcast_shapes(u.shape, wo.shape[:-1] + (2,))))
 
     def _pdf(self, wi, wo, p):
-        from ..sampling import cosine_hemisphere_pdf
+        from brdflab.geometry.sampling import cosine_hemisphere_pdf
 
         return np.broadcast_to(cosine_hemisphere_pdf(wi), np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1]))

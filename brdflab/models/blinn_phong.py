@@ -1,9 +1,9 @@
 """Normalised Blinn–Phong: (n+2)/(2π) cos^n θh."""
 
-from ..sampling import cosine_power_around, cosine_power_pdf, half_vector_pdf, reflect
-from ..vec import half_vector
-from .base import LobeModel, Parameter, normalised_phong_factor
-from .registry import register
+from brdflab.geometry.sampling import cosine_power_around, cosine_power_pdf, half_vector_pdf, reflect
+from brdflab.geometry.vec import half_vector
+from brdflab.models.base import LobeModel, Parameter, normalised_phong_factor
+from brdflab.models.registry import register
 import numpy as np
 
 _Z = np.array([0.0, 0.0, 1.0])

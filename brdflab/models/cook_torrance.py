@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from ..sampling import beckmann_d, beckmann_half_vector, ggx_d, ggx_half_vector, half_vector_pdf, reflect
-from ..vec import dot, half_vector, schlick
-from .base import LobeModel, Parameter
-from .registry import register
+from brdflab.geometry.sampling import beckmann_d, beckmann_half_vector, ggx_d, ggx_half_vector, half_vector_pdf, reflect
+from brdflab.geometry.vec import dot, half_vector, schlick
+from brdflab.models.base import LobeModel, Parameter
+from brdflab.models.registry import register
 
 _STARTS = tuple({"m": m, "F0": f} for m in (0.02, 0.08, 0.25, 0.5) for f in (0.05, 0.8))
 _PARAMS = (

@@ -4,15 +4,15 @@ Kurt is eq. 13 and Lambertian + several Kurt lobes is eq. 14."""
 
 import numpy as np
 
-from ..sampling import (
+from brdflab.geometry.sampling import (
     beckmann_d,
     beckmann_half_vector,
     half_vector_pdf,
     reflect,
 )
-from ..vec import dot, half_vector, schlick
-from .base import CosineSampled, LobeModel, Parameter
-from .registry import register
+from brdflab.geometry.vec import dot, half_vector, schlick
+from brdflab.models.base import CosineSampled, LobeModel, Parameter
+from brdflab.models.registry import register
 
 
 @register

@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from ..sampling import cosine_power_around, cosine_power_pdf, stable_axis
-from ..vec import TINY, dot
-from .base import LobeModel, Parameter, normalised_phong_factor
-from .registry import register
+from brdflab.geometry.sampling import cosine_power_around, cosine_power_pdf, stable_axis
+from brdflab.geometry.vec import TINY, dot
+from brdflab.models.base import LobeModel, Parameter, normalised_phong_factor
+from brdflab.models.registry import register
 
 _C = dict(lower=-5.0, upper=5.0)
 

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from .base import CosineSampled
-from .registry import register
+from brdflab.models.base import CosineSampled
+from brdflab.models.registry import register
 
 
 @register

@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from ..vec import TINY
-from .base import CosineSampled, Parameter
-from .registry import register
+from brdflab.geometry.vec import TINY
+from brdflab.models.base import CosineSampled, Parameter
+from brdflab.models.registry import register
 
 
 @register

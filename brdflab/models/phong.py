@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from ..sampling import cosine_power_around, cosine_power_pdf
-from ..vec import dot, reflect_about_normal
-from .base import LobeModel, Parameter, normalised_phong_factor
-from .registry import register
+from brdflab.geometry.sampling import cosine_power_around, cosine_power_pdf
+from brdflab.geometry.vec import dot, reflect_about_normal
+from brdflab.models.base import LobeModel, Parameter, normalised_phong_factor
+from brdflab.models.registry import register
 
 
 @register

@@ -5,8 +5,8 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
-from ..errors import BRDFLabError
-from .base import LobeModel
+from brdflab.errors import BRDFLabError
+from brdflab.models.base import LobeModel
 
 _MODELS: dict[str, LobeModel] = {}
 
@@ -20,7 +20,7 @@ def register(cls: type[LobeModel]) -> type[LobeModel]:
 
 
 def _load_all() -> None:
-    from . import __path__ as pkg_path
+    from brdflab.models import __path__ as pkg_path
 
     for info in sorted(pkgutil.iter_modules(pkg_path), key=lambda i: i.name):
         if info.name not in {"base", "registry"}:

@@ -7,10 +7,10 @@ F0 = 1 − m + m·tint, where tint is the material colour over its luminance.
 
 import numpy as np
 
-from ..sampling import cosine_power_around, cosine_power_pdf, half_vector_pdf, reflect
-from ..vec import dot, half_vector, schlick
-from .base import LobeModel, Parameter
-from .registry import register
+from brdflab.geometry.sampling import cosine_power_around, cosine_power_pdf, half_vector_pdf, reflect
+from brdflab.geometry.vec import dot, half_vector, schlick
+from brdflab.models.base import LobeModel, Parameter
+from brdflab.models.registry import register
 
 _Z = np.array([0.0, 0.0, 1.0])
 

@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from ..vec import TINY, dot, reflect_about_normal
-from .base import LobeModel, Parameter
-from .registry import register
+from brdflab.geometry.vec import TINY, dot, reflect_about_normal
+from brdflab.models.base import LobeModel, Parameter
+from brdflab.models.registry import register
 
 KF, KG, KJ = 1.12, 1.01, 0.1
 

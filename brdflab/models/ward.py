@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from ..sampling import beckmann_half_vector, beckmann_d, half_vector_pdf, reflect
-from ..vec import half_vector
-from .base import LobeModel, Parameter
-from .registry import register
+from brdflab.geometry.sampling import beckmann_half_vector, beckmann_d, half_vector_pdf, reflect
+from brdflab.geometry.vec import half_vector
+from brdflab.models.base import LobeModel, Parameter
+from brdflab.models.registry import register
 
 _ROUGH = dict(lower=0.001, upper=1.0, unit="1")
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import moderngl
 
-from ..errors import BRDFLabError
+from brdflab.errors import BRDFLabError
 
 
 def create_context() -> moderngl.Context:

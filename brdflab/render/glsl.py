@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..material import AnalyticMaterial
-from ..models import LobeModel
-from ..resources import shader_path
+from brdflab.material.analytic import AnalyticMaterial
+from brdflab.models import LobeModel
+from brdflab.io.resources import shader_path
 
 MAX_PARAMS = 8
 GLSL_VERSION = "#version 330 core\n"
@@ -32,7 +32,7 @@ def material_source(models: tuple[str, ...], measured: bool = False) -> str:
 
     measured=True: material_eval reads the measured table (shaders/measured.glsl) and the
     lobes are only a fitted proxy that importance-samples it."""
-    from ..models import get_model
+    from brdflab.models import get_model
 
     n = len(models)
     parts = [shader_source("common.glsl")]

@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from ..geodesic import geodesic_hemisphere
-from ..material import AnalyticMaterial
-from ..vec import spherical_to_cartesian
-from .camera import OrbitCamera, gl_matrix
-from .glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
+from brdflab.geometry.geodesic import geodesic_hemisphere
+from brdflab.material.analytic import AnalyticMaterial
+from brdflab.geometry.vec import spherical_to_cartesian
+from brdflab.render.camera import OrbitCamera, gl_matrix
+from brdflab.render.glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 
 TRANSFERS = {"linear": 0, "cbrt": 1, "log": 2}
 CHANNELS = {"red": 0, "green": 1, "blue": 2, "luminance": 3}

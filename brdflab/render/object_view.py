@@ -12,15 +12,15 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ..envmap import EnvironmentMap
-from ..errors import BRDFLabError
-from ..material import AnalyticMaterial
-from ..measured import MeasuredTable, tabulate
-from ..proxy import proxy_lobes
-from ..mesh import Mesh
-from .camera import OrbitCamera, gl_matrix
-from .glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
-from ..sampling_sets import lobe_shares, sample_set
+from brdflab.lighting.envmap import EnvironmentMap
+from brdflab.errors import BRDFLabError
+from brdflab.material.analytic import AnalyticMaterial
+from brdflab.sources.measured import MeasuredTable, tabulate
+from brdflab.sources.proxy import proxy_lobes
+from brdflab.io.mesh import Mesh
+from brdflab.render.camera import OrbitCamera, gl_matrix
+from brdflab.render.glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
+from brdflab.lighting.sampling_sets import lobe_shares, sample_set
 
 MODES = ("point", "fis", "sh")
 BATCH = 32  # samples per draw: keeps each draw short on software rasterisers
@@ -143,7 +143,7 @@ class ObjectRenderer:
         self._sh_state = None
 
     def set_sh_order(self, order: int, window: str | None = None) -> None:
-        from .. import sh
+        from brdflab.lighting import sh
 
         sh.check_order(order)
         if (order, window) != (self.sh_order, self.sh_window):
@@ -152,8 +152,8 @@ class ObjectRenderer:
 
     def _sh_resources(self, settings: RenderSettings):
         """BRDF table, rotation matrices and lighting for the current order (built lazily)."""
-        from .. import sh
-        from ..sh_tables import cached_table
+        from brdflab.lighting import sh
+        from brdflab.lighting.sh_tables import cached_table
 
         if self.environment is None:
             raise BRDFLabError("no environment map for the spherical-harmonics mode")
@@ -184,14 +184,14 @@ class ObjectRenderer:
 
     def sh_table_ready(self) -> bool:
         """Whether the SH mode can draw without building a table first."""
-        from ..sh_tables import is_cached
+        from brdflab.lighting.sh_tables import is_cached
 
         return self._sh_state is not None or is_cached(self.source if self.source is not None else self.material, self.sh_order)
 
     def _vertex_frames(self) -> tuple[np.ndarray, np.ndarray]:
         """World → local rotation of every vertex (rows t, b, n, as the fragment shader
         builds them) and every vertex's view direction (world)."""
-        from ..vec import normalize
+        from brdflab.geometry.vec import normalize
 
         R_model = self.model_rotation
         p = self.mesh.positions.astype(float) @ R_model.T
@@ -210,9 +210,9 @@ class ObjectRenderer:
         variant that lighting in each vertex's frame; for the fixed-view variant each vertex's
         colour (its BRDF vector turned to world, dotted with the lighting). Visibility is
         computed once per mesh and order, the rest when the lighting or the view changes."""
-        from .. import sh
-        from ..sh_tables import cached_table, lookup
-        from .transfer import quadrature, transferred_lighting, vertex_visibility
+        from brdflab.lighting import sh
+        from brdflab.lighting.sh_tables import cached_table, lookup
+        from brdflab.render.transfer import quadrature, transferred_lighting, vertex_visibility
 
         light = self.sh_lighting(settings)[:, :3]
         key = (id(self.mesh), self.sh_order)
@@ -256,7 +256,7 @@ class ObjectRenderer:
 
     def sh_lighting(self, settings: RenderSettings) -> np.ndarray:
         """World-frame lighting coefficients, with the environment's rotation applied."""
-        from .. import sh
+        from brdflab.lighting import sh
 
         light = self._sh_resources(settings)[4]
         if settings.env_rotation:

@@ -14,8 +14,8 @@ import math
 import moderngl
 import numpy as np
 
-from .. import sh
-from ..mesh import Mesh
+from brdflab.lighting import sh
+from brdflab.io.mesh import Mesh
 
 DEPTH_SIZE = 512
 _VERTEX = """

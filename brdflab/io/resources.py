@@ -15,7 +15,7 @@ _FOLDERS = {"shaders": "brdflab._shaders", "materials": "brdflab._materials", "r
 
 def data_dir(kind: str) -> Path:
     """The folder of shipped `kind` data ('shaders', 'materials' or 'resources')."""
-    checkout = Path(__file__).resolve().parent.parent / kind
+    checkout = Path(__file__).resolve().parents[2] / kind
     if checkout.is_dir():
         return checkout
     spec = importlib.util.find_spec(_FOLDERS[kind])

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from .errors import BRDFLabError
-from .samples import SampleSet
+from brdflab.errors import BRDFLabError
+from brdflab.fitting.samples import SampleSet
 
 NGAN_MAX_COS = math.cos(math.radians(80.0))
 

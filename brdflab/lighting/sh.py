@@ -13,7 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .errors import BRDFLabError
+from brdflab.errors import BRDFLabError
 
 MAX_ORDER = 16
 

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BRDFLabError
-from .resources import data_dir
+from brdflab.errors import BRDFLabError
+from brdflab.io.resources import data_dir
 
 MAX_TRIANGLES = 20_000_000
 FORMATS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")

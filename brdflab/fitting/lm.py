@@ -26,11 +26,11 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import nnls
 
-from .errors import BRDFLabError
-from .material import AnalyticMaterial, Lobe
-from .models import get_model
-from .metrics import sample_weight
-from .samples import SampleSet
+from brdflab.errors import BRDFLabError
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.models import get_model
+from brdflab.fitting.metrics import sample_weight
+from brdflab.fitting.samples import SampleSet
 
 METRICS = {
     "L2": "root-mean-square difference of BRDF values (1/sr)",

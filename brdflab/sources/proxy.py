@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-from .material import AnalyticMaterial
+from brdflab.material.analytic import AnalyticMaterial
 
 
 def proxy_lobes(source) -> AnalyticMaterial:
     """A Lambertian + two Cook–Torrance fit (Ngan metric, a stratified subset): the
     distribution that importance-samples a measured source (a sharp and a broad lobe,
     so that glossy tails get samples too). Analytic materials are their own proxy."""
-    from .fit import FitOptions, fit, material_from_lobes
-    from .measured import MeasuredTable, tabulate
-    from .samples import samples_of
+    from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
+    from brdflab.sources.measured import MeasuredTable, tabulate
+    from brdflab.fitting.samples import samples_of
 
     if isinstance(source, AnalyticMaterial):
         return source

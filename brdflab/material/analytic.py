@@ -14,8 +14,8 @@ from typing import Literal
 
 import numpy as np
 
-from .errors import BRDFLabError
-from .models import LobeModel, get_model
+from brdflab.errors import BRDFLabError
+from brdflab.models import LobeModel, get_model
 
 Combination = Literal["Linear", "Fixed"]
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .vec import TINY, dot, frame_around, normalize
+from brdflab.geometry.vec import TINY, dot, frame_around, normalize
 
 INV_PI = 1.0 / np.pi
 INV_2PI = 0.5 / np.pi

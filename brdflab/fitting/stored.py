@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .errors import BRDFLabError
-from .fit import FitResult, material_from_lobes
-from .material import AnalyticMaterial
-from .measured import MeasuredTable, RawSamples
-from .sources import is_xml
-from .xmlio import BRDFDocument, Fitting, MeasuredReference, load
+from brdflab.errors import BRDFLabError
+from brdflab.fitting.lm import FitResult, material_from_lobes
+from brdflab.material.analytic import AnalyticMaterial
+from brdflab.sources.measured import MeasuredTable, RawSamples
+from brdflab.sources.files import is_xml
+from brdflab.io.xmlio import BRDFDocument, Fitting, MeasuredReference, load
 
 
 def initial_material(lobes: list[str] | None, combination: str, n_channels: int,

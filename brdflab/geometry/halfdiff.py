@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .vec import normalize, spherical_to_cartesian
+from brdflab.geometry.vec import normalize, spherical_to_cartesian
 
 N_TH, N_TD, N_PD = 90, 90, 180  # θh, θd, φd bins of a MERL table (φd over [0, π))
 HALF_PI = 0.5 * np.pi

@@ -13,13 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .envmap import load_environment
-from .material import AnalyticMaterial, Lobe
-from .models import all_models
-from .reference_view import environment_image, relative_rmse, sphere_view
-from .resources import data_dir
+from brdflab.lighting.envmap import load_environment
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.models import all_models
+from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
+from brdflab.io.resources import data_dir
 
-DATA_SLICE = Path(__file__).resolve().parents[2] / "shared" / "data" / "merl_slices" / "gold-metallic-paint3.slice"
+DATA_SLICE = Path(__file__).resolve().parents[3] / "shared" / "data" / "merl_slices" / "gold-metallic-paint3.slice"
 
 BENCH_MATERIALS = {
     "diffuse": lambda: AnalyticMaterial("diffuse", "Linear", 3, [Lobe.create("Lambertian", [0.25, 0.2, 0.15])]),
@@ -54,8 +54,8 @@ def model_throughput(pairs: int) -> list[dict]:
 
 def _scene(quick: bool):
     """A renderer, the shipped map and its 128 × 64 reduction, frame and error sizes."""
-    from .render.context import create_context
-    from .render.object_view import ObjectRenderer
+    from brdflab.render.context import create_context
+    from brdflab.render.object_view import ObjectRenderer
 
     ctx = create_context()
     env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr")
@@ -63,8 +63,8 @@ def _scene(quick: bool):
 
 
 def render_numbers(quick: bool) -> dict:
-    from .render.lobe_view import LobeViewer
-    from .render.object_view import RenderSettings
+    from brdflab.render.lobe_view import LobeViewer
+    from brdflab.render.object_view import RenderSettings
 
     ctx, renderer, env, small, size, err_size = _scene(quick)
     counts = (16, 64) if quick else (16, 64, 256)
@@ -97,7 +97,7 @@ def big_mesh(min_vertices: int = 150_000):
     teapot of about 150,000)."""
     import trimesh
 
-    from .mesh import from_arrays, load_mesh
+    from brdflab.io.mesh import from_arrays, load_mesh
 
     base = load_mesh(data_dir("resources") / "meshes" / "spot.obj")
     v, f = base.positions.astype(float), base.faces.astype(np.int64)
@@ -107,9 +107,9 @@ def big_mesh(min_vertices: int = 150_000):
 
 
 def sh_numbers(quick: bool) -> dict:
-    from .measured import read_slice
-    from .render.object_view import RenderSettings
-    from .sh_tables import brdf_table
+    from brdflab.sources.measured import read_slice
+    from brdflab.render.object_view import RenderSettings
+    from brdflab.lighting.sh_tables import brdf_table
 
     _, renderer, env, small, size, err_size = _scene(quick)
     orders = (3, 5) if quick else (3, 5, 8)
@@ -204,7 +204,7 @@ def charts(result: dict, out_dir: Path) -> list[str]:
 
 
 def run(out_dir: Path, quick: bool = False) -> dict:
-    from .xmlio import atomic_write
+    from brdflab.io.xmlio import atomic_write
 
     out_dir.mkdir(parents=True, exist_ok=True)
     result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine()},

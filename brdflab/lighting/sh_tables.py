@@ -13,11 +13,11 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import qmc
 
-from . import sh
-from .errors import BRDFLabError
-from .material import AnalyticMaterial
-from .proxy import proxy_lobes
-from .sampling_sets import lobe_shares, sample_set
+from brdflab.lighting import sh
+from brdflab.errors import BRDFLabError
+from brdflab.material.analytic import AnalyticMaterial
+from brdflab.sources.proxy import proxy_lobes
+from brdflab.lighting.sampling_sets import lobe_shares, sample_set
 
 DEFAULT_SIZE = 128
 
@@ -66,7 +66,7 @@ def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int =
             if model.samplable:
                 wi[:, sel] = model.sample(wo[:, sel], u[sel][None], lobe.params)
             else:
-                from .sampling import cosine_hemisphere
+                from brdflab.geometry.sampling import cosine_hemisphere
 
                 wi[:, sel] = cosine_hemisphere(np.broadcast_to(u[sel][None], (len(v), sel.sum(), 2)))
         pdf = np.zeros((len(v), n))

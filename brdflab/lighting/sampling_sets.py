@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .albedo import lobe_albedo
-from .material import AnalyticMaterial
+from brdflab.material.albedo import lobe_albedo
+from brdflab.material.analytic import AnalyticMaterial
 
 
 def radical_inverse_2(i: np.ndarray) -> np.ndarray:

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .albedo import energy_check
-from .errors import BRDFLabError
-from .material import AnalyticMaterial
-from .measured import read_measured
-from .xmlio import BRDFDocument, MeasuredReference, load
+from brdflab.material.albedo import energy_check
+from brdflab.errors import BRDFLabError
+from brdflab.material.analytic import AnalyticMaterial
+from brdflab.sources.measured import read_measured
+from brdflab.io.xmlio import BRDFDocument, MeasuredReference, load
 
 
 def is_xml(path: Path) -> bool:

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .envmap import EnvironmentMap
+from brdflab.lighting.envmap import EnvironmentMap
 
 
 @dataclass

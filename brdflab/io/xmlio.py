@@ -18,9 +18,9 @@ from pathlib import Path
 
 from lxml import etree
 
-from .errors import BRDFLabError
-from .material import AnalyticMaterial, Lobe
-from .models import get_model
+from brdflab.errors import BRDFLabError
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.models import get_model
 
 ANALYTIC = "Analytic"
 

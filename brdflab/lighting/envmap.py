@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BRDFLabError
+from brdflab.errors import BRDFLabError
 
 MAX_PIXELS = 64 * 1024 * 1024
 
@@ -194,7 +194,7 @@ def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
     """Write linear float32 RGB (H, W, 3) as OpenEXR (ZIP compression), atomically."""
     import OpenEXR
 
-    from .xmlio import atomic_write
+    from brdflab.io.xmlio import atomic_write
 
     path = Path(path)
     img = np.ascontiguousarray(image[..., :3], np.float32)

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BRDFLabError
-from .halfdiff import N_PD, N_TD, N_TH, continuous_bins, from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin, to_half_diff
-from .vec import spherical_to_cartesian
+from brdflab.errors import BRDFLabError
+from brdflab.geometry.halfdiff import N_PD, N_TD, N_TH, continuous_bins, from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin, to_half_diff
+from brdflab.geometry.vec import spherical_to_cartesian
 
 MERL_SCALE = np.array([1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0])
 MERL_HEADER = np.array([N_TH, N_TD, N_PD], dtype="<i4")
@@ -171,7 +171,7 @@ def read_merl_binary(path: str | os.PathLike) -> MeasuredTable:
 
 def write_merl_binary(table: MeasuredTable, path: str | os.PathLike) -> None:
     """Write a full 3-channel table as MERL `.binary` (unmeasured samples as −1)."""
-    from .xmlio import atomic_write
+    from brdflab.io.xmlio import atomic_write
 
     full = table.to_full()
     if full.n_channels != 3:

@@ -11,10 +11,10 @@ from typing import Iterator
 
 import numpy as np
 
-from .errors import BRDFLabError
-from .halfdiff import N_PD, N_TD, N_TH, from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin
-from .measured import MeasuredTable, RawSamples
-from .vec import spherical_to_cartesian
+from brdflab.errors import BRDFLabError
+from brdflab.geometry.halfdiff import N_PD, N_TD, N_TH, from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin
+from brdflab.sources.measured import MeasuredTable, RawSamples
+from brdflab.geometry.vec import spherical_to_cartesian
 
 Chunk = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 

@@ -14,8 +14,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import qmc
 
-from .material import AnalyticMaterial, Lobe
-from .vec import spherical_to_cartesian
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.geometry.vec import spherical_to_cartesian
 
 
 @lru_cache(maxsize=8)

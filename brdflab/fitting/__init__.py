@@ -1,0 +1,1 @@
+"""Levenberg–Marquardt fitting: sample sets, metrics, the fitter and stored fits."""

@@ -1,0 +1,1 @@
+"""Directions, half/difference angles, geodesic grids and sampling warps."""

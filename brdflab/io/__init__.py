@@ -1,0 +1,1 @@
+"""Files: BRDFLab XML, meshes, and the data shipped with the package."""

@@ -1,0 +1,1 @@
+"""Environment maps, spherical harmonics, sample sets and the reference view."""

@@ -1,0 +1,1 @@
+"""Analytic materials (lobes in Linear or Fixed combinations) and their albedo."""

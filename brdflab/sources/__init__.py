@@ -1,0 +1,1 @@
+"""Everything a BRDF can come from besides lobes: measured files, and opening any file."""

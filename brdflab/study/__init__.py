@@ -1,0 +1,1 @@
+"""The lab measuring itself: speed and accuracy benchmarks."""
