@@ -1,4 +1,4 @@
-"""The command line: `brdflab [gui|models|info|eval|fit|render|bench] ...`.
+"""The command line: `brdflab [gui|models|info|eval|fit|render|simulate|bench] ...`.
 
 Every command prints one JSON object as the last line of stdout with --json. Bad
 input raises BRDFLabError, which becomes a one-line message on stderr and exit
@@ -227,6 +227,47 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from brdflab.io.xmlio import BRDFDocument, save
+    from brdflab.simulation.material import SimulationSpec, reference_of, simulated_material
+    from brdflab.simulation.registry import KINDS, get_kind
+
+    if args.list:
+        kinds = [k.describe() for k in KINDS.values()]
+        lines = []
+        for k in kinds:
+            lines.append(f"{k['kind']} ({k['library']}{'' if k['available'] else ', not installed'}): {k['doc']}")
+            for p in k["parameters"]:
+                rng = " | ".join(p["choices"]) if "choices" in p else f"[{p['lower']:g}, {p['upper']:g}]"
+                lines.append(f"    {p['name']:<14} {str(p['default']):<8} {rng:<22} {p['unit']:<5} {p['doc']}")
+        _emit(args, {"kinds": kinds}, "\n".join(lines))
+        return 0
+    if not args.kind or not args.out:
+        raise BRDFLabError("simulate needs a KIND and --out FILE.xml (or --list)")
+    given = {}
+    for item in args.set or []:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise BRDFLabError(f"--set {item!r}: expected NAME=VALUE")
+        given[name.strip()] = value.strip()
+    kind = get_kind(args.kind)
+    spec = SimulationSpec(kind.name, kind.complete(given), args.seed, args.samples, args.resolution, args.name or "")
+    out = Path(args.out)
+    show = sys.stderr.isatty() and not args.json
+
+    def progress(fraction: float, message: str) -> None:
+        if show:
+            print(f"\r{message} ({100 * fraction:3.0f} %)", end="", file=sys.stderr, flush=True)
+
+    material = simulated_material(spec, progress)
+    if show:
+        print(file=sys.stderr)
+    save(BRDFDocument(reference_of(spec)), out)
+    payload = {"out": str(out), "seconds": material.seconds, **material.describe()}
+    _emit(args, payload, f"wrote {out} ({spec.kind}, {spec.resolution}³ table in {material.seconds:.2f} s)")
+    return 0
+
+
 def cmd_gui(args: argparse.Namespace) -> int:
     from brdflab.gui.app import run
 
@@ -299,6 +340,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("simulate", help="write a simulated material (SCATMECH or ray-bounce microgeometry)")
+    p.add_argument("kind", nargs="?", help="a simulated kind (see --list)")
+    p.add_argument("--list", action="store_true", help="list every simulated kind with its parameters")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a parameter value (repeatable)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the ray-bounce simulator")
+    p.add_argument("--samples", type=int, default=200_000, help="rays per incident angle (ray-bounce kinds)")
+    p.add_argument("--resolution", type=int, default=32, help="R of the R×R×R half/difference table")
+    p.add_argument("--name", help="the material's name (default: the kind)")
+    p.add_argument("--out", help="the XML material to write")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("bench", help="speed/accuracy charts (PNG) and numbers (JSON)")
     p.add_argument("--quick", action="store_true", help="smaller sizes, fewer sample counts")

@@ -23,6 +23,7 @@ from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import get_model
 
 ANALYTIC = "Analytic"
+SIMULATED_TYPES = ("SCATMECH", "RayBounce")  # <Type> names the simulation library, as BRDFLab does
 
 
 @dataclass
@@ -65,6 +66,25 @@ class MeasuredReference:
 
 
 @dataclass
+class SimulatedReference:
+    """A simulated material as stored: library (<Type>), model, every parameter (as text),
+    seed, ray count and table resolution; `brdflab.simulation` rebuilds it."""
+
+    type: str
+    name: str
+    model: str
+    parameters: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)  # seed, samples, resolution (text)
+    extra: list = field(default_factory=list)
+
+    kind = "Simulated"
+
+    def describe(self) -> dict:
+        return {"type": self.type, "name": self.name, "model": self.model,
+                "parameters": dict(self.parameters), **self.settings}
+
+
+@dataclass
 class Fitting:
     """A stored fit: an analytic material plus how it was obtained."""
 
@@ -90,7 +110,7 @@ class Fitting:
 class BRDFDocument:
     """Everything one XML file holds."""
 
-    material: AnalyticMaterial | MeasuredReference
+    material: AnalyticMaterial | MeasuredReference | SimulatedReference
     fittings: list[Fitting] = field(default_factory=list)
     info: etree._Element | None = None
     extra: list = field(default_factory=list)
@@ -215,6 +235,8 @@ class _Reader:
         name = self.text(el, "Name", required=False) or ""
         mtype = self.text(el, "Type")
         known = {"Name", "Type"}
+        if mtype in SIMULATED_TYPES:
+            return self.simulated(el, mtype, name)
         if mtype != ANALYTIC:
             if not name:
                 raise self.fail(el, f"a {mtype} material must name its data file in <Name>")
@@ -243,6 +265,16 @@ class _Reader:
         except BRDFLabError as e:
             raise self.fail(params, str(e)) from None
         return mat
+
+    def simulated(self, el: etree._Element, mtype: str, name: str) -> SimulatedReference:
+        sim = el.find("Simulation")
+        if sim is None or not sim.get("model"):
+            raise self.fail(el, f"a {mtype} material needs <Simulation model=..>")
+        p_el = sim.find("Parameters")
+        params = {} if p_el is None else dict(p_el.attrib)
+        settings = {k: v for k, v in sim.attrib.items() if k != "model"}
+        extra = self.leftovers(el, {"Name", "Type", "Simulation"}, "Material")
+        return SimulatedReference(mtype, name or sim.get("model"), sim.get("model"), params, settings, extra)
 
     def leftovers(self, el: etree._Element, known: set[str], parent: str) -> list:
         out = []
@@ -365,6 +397,12 @@ def _num(v: float) -> str:
 def material_element(material: AnalyticMaterial | MeasuredReference) -> etree._Element:
     el = etree.Element("Material")
     etree.SubElement(el, "Name").text = material.name
+    if isinstance(material, SimulatedReference):
+        etree.SubElement(el, "Type").text = material.type
+        sim = etree.SubElement(el, "Simulation", {"model": material.model, **material.settings})
+        etree.SubElement(sim, "Parameters", material.parameters)
+        el.extend(copy.deepcopy(x) for x in material.extra)
+        return el
     if isinstance(material, MeasuredReference):
         etree.SubElement(el, "Type").text = material.type
         if material.sha256:

@@ -170,3 +170,55 @@ def load_table(spec: SimulationSpec, progress: Progress | None = None, workers: 
 def simulated_material(spec: SimulationSpec, progress: Progress | None = None, workers: int | None = None) -> SimulatedMaterial:
     table, seconds = load_table(spec, progress, workers)
     return SimulatedMaterial(spec, table, seconds)
+
+
+# --------------------------------------------------------------------------------------
+# files
+
+def reference_of(spec: SimulationSpec):
+    """The <Material> element's content that reproduces `spec`."""
+    from brdflab.io.xmlio import SimulatedReference
+
+    settings = {"resolution": str(spec.resolution)}
+    if get_kind(spec.kind).uses_rays:
+        settings.update(seed=str(spec.seed), samples=str(spec.samples))
+    return SimulatedReference(spec.library, spec.name, spec.kind, {k: str(v) for k, v in spec.params.items()}, settings)
+
+
+def _integer(settings: dict, name: str, default: int) -> int:
+    text = settings.get(name)
+    if text is None:
+        return default
+    try:
+        return int(text)
+    except ValueError:
+        raise BRDFLabError(f"<Simulation {name}={text!r}> is not an integer") from None
+
+
+def spec_of(ref) -> SimulationSpec:
+    """The spec a stored simulated material describes (BRDFLabError if it is not valid)."""
+    kind = get_kind(ref.model)
+    if kind.library != ref.type:
+        raise BRDFLabError(f"the simulated kind {ref.model} belongs to {kind.library}, the file says <Type>{ref.type}")
+    return SimulationSpec(ref.model, kind.complete(ref.parameters), _integer(ref.settings, "seed", 0),
+                          _integer(ref.settings, "samples", 200_000), _integer(ref.settings, "resolution", 32), ref.name)
+
+
+def open_simulated(ref, path: Path | None = None, progress: Progress | None = None) -> SimulatedMaterial:
+    """The source a stored simulated material stands for (computed, or from the cache)."""
+    try:
+        spec = spec_of(ref)
+        return simulated_material(spec, progress)
+    except BRDFLabError as e:
+        raise (e if e.path or path is None else BRDFLabError(str(e), path)) from None
+
+
+def describe_stored(ref, path: Path | None = None) -> dict:
+    """What `brdflab info` says about a stored simulated material, without simulating it."""
+    try:
+        spec = spec_of(ref)
+    except BRDFLabError as e:
+        raise (e if e.path or path is None else BRDFLabError(str(e), path)) from None
+    cached = (cache_dir() / f"{spec.kind}-{spec.key()}.npy").is_file()
+    return {"type": spec.library, "name": spec.name, **spec.describe(), "channels": 3,
+            "available": get_kind(spec.kind).available, "cached": cached}

@@ -1,7 +1,7 @@
 """Open any file the lab understands as a BRDF source.
 
 A source has `evaluate(wi, wo) → (N, C)`, `n_channels`, `isotropic` and `describe()`:
-analytic materials, measured tables and raw samples all qualify.
+analytic materials, measured tables, raw samples and simulated materials all qualify.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from brdflab.material.albedo import energy_check
 from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.sources.measured import read_measured
-from brdflab.io.xmlio import BRDFDocument, MeasuredReference, load
+from brdflab.io.xmlio import BRDFDocument, MeasuredReference, SimulatedReference, load
 
 
 def is_xml(path: Path) -> bool:
@@ -42,6 +42,10 @@ def load_source(path: Path, fitting: int | None = None):
         return doc.fittings[fitting].material
     if isinstance(doc.material, MeasuredReference):
         return resolve_measured(doc.material)
+    if isinstance(doc.material, SimulatedReference):
+        from brdflab.simulation.material import open_simulated
+
+        return open_simulated(doc.material, path)
     return doc.material
 
 
@@ -56,6 +60,10 @@ def describe_file(path: Path) -> dict:
     info = doc.describe()
     if isinstance(doc.material, AnalyticMaterial):
         info["energy"] = energy_check(doc.material).as_dict()
+    if isinstance(doc.material, SimulatedReference):
+        from brdflab.simulation.material import describe_stored
+
+        info["material"] = describe_stored(doc.material, path)
     for k, fit in enumerate(doc.fittings):
         info["fittings"][k]["energy"] = energy_check(fit.material).as_dict()
     return info
