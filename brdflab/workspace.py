@@ -13,9 +13,9 @@ from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.sources.measured import read_measured
 from brdflab.sources.files import is_xml, resolve_measured
-from brdflab.io.xmlio import BRDFDocument, Fitting, MeasuredReference, load, save
+from brdflab.io.xmlio import BRDFDocument, Fitting, MeasuredReference, SimulatedReference, load, save
 
-OPEN_FILTER = "Materials and measurements (*.xml *.binary *.slice *.txt *.csv *.carpaint *.bin);;All files (*)"
+OPEN_FILTER = "Materials (analytic, measured, simulated) and measurements (*.xml *.binary *.slice *.txt *.csv *.carpaint *.bin);;All files (*)"
 
 
 def default_material() -> AnalyticMaterial:
@@ -58,6 +58,10 @@ class Workspace:
                     ref = doc.material
                     if ref.sha256 and ref.current_sha256() != ref.sha256:
                         ws.messages.append(f"{ref.path}: the data file changed since its fits were made (sha256 differs)")
+            if isinstance(doc.material, SimulatedReference):
+                from brdflab.simulation.material import open_simulated
+
+                ws.source = open_simulated(doc.material, path)  # from the cache when `simulate` made it
             if doc.fittings:
                 ws.shown_fit = len(doc.fittings) - 1
             return ws

@@ -157,6 +157,7 @@ class MainWindow(QMainWindow):
         self.recent_menu = None
         for text, shortcut, slot in (
             ("&New analytic material", QKeySequence.New, self.new_material),
+            ("New s&imulated material…", "Ctrl+Shift+N", self.show_simulation),
             ("&Open…", QKeySequence.Open, self.open_dialog),
             ("Open &mesh…", "Ctrl+M", self.open_mesh_dialog),
             ("Open &environment…", "Ctrl+E", self.open_environment_dialog),
@@ -388,6 +389,12 @@ class MainWindow(QMainWindow):
     def new_material(self) -> None:
         if self.maybe_save():
             self.set_workspace(Workspace.new())
+
+    def show_simulation(self) -> None:
+        """The Simulation dock (brdflab.gui.simulated), on the open simulated material if any."""
+        from brdflab.gui.simulated import show_simulation_dock
+
+        show_simulation_dock(self)
 
     # loading happens in a worker thread; `loading` is true until the result is applied
     @property
