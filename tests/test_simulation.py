@@ -128,3 +128,18 @@ def test_scatmech_diffuse_subsurface_is_lambertian_times_fresnel_transmission():
     v = scatmech.evaluate_chunk("DiffuseSubsurface", spec.params, wi, wi)
     t = 1 - (0.5 / 2.5) ** 2
     assert 0.5 * t * t / (np.pi * 1.5**2) * 0.99 < v[0, 0] < 0.5 / np.pi
+
+
+@pytest.mark.skipif(not scatmech.available(), reason="pySCATMECH is not installed")
+def test_scatmech_facet_peak_is_fresnel_times_gaussian_slopes_and_the_table_holds_it():
+    """Facet model at normal incidence and view: f = R(0) · P(0) / 4 with P(0) = 1/(π s²)
+    for a Gaussian slope distribution of RMS slope s and R(0) = ((n−1)/(n+1))² (1 %)."""
+    spec = SimulationSpec("Facet", {"rms_slope": 0.3}, resolution=4)
+    normal = np.array([[0.0, 0.0, 1.0]])
+    v = scatmech.evaluate_chunk("Facet", spec.params, normal, normal)
+    assert v[0] == pytest.approx([0.04 / (4 * np.pi * 0.09)] * 3, rel=0.01)
+    table = compute_table(spec, workers=2)
+    from brdflab.simulation.table import node_directions
+
+    wi, wo = node_directions(4)
+    assert np.allclose(table.evaluate(wi, wo), scatmech.evaluate_chunk("Facet", spec.params, wi, wo), rtol=1e-5, atol=1e-9)
