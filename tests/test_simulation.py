@@ -79,6 +79,12 @@ def test_the_file_stores_everything_that_reproduces_the_material(tmp_path):
     again = spec_of(load(path).material)
     assert (again.kind, again.params, again.seed, again.samples, again.resolution, again.name) == \
         (spec.kind, spec.params, spec.seed, spec.samples, spec.resolution, spec.name)
+    text = path.read_text().replace("</Simulation>", "</Simulation><Note>kept</Note>")
+    path.write_text(text)
+    doc = load(path)
+    assert any("Note" in w for w in doc.warnings)
+    save(doc, path)
+    assert "<Note>kept</Note>" in path.read_text()  # unknown elements survive a save
     source = load_source(path)
     assert source.n_channels == 3 and source.isotropic
     assert np.array_equal(source.table.values, compute_table(spec, workers=1).values)
@@ -109,6 +115,9 @@ def test_cli_simulate_list_write_info_eval_and_refuse_bad_input(tmp_path):
     (tmp_path / "broken.xml").write_text((tmp_path / "hf.xml").read_text().replace('rms_slope="0.2"', 'rms_slope="-1"'))
     bad = _cli("info", "broken.xml", cwd=tmp_path)
     assert bad.returncode == 2 and "broken.xml" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
+    (tmp_path / "huge.xml").write_text((tmp_path / "hf.xml").read_text().replace('resolution="8"', 'resolution="100000"'))
+    bad = _cli("eval", "huge.xml", "--pairs", "pairs.npy", "--out", "w.npy", cwd=tmp_path)
+    assert bad.returncode == 2 and "huge.xml" in bad.stderr and "resolution 100000" in bad.stderr
 
 
 @pytest.mark.skipif(scatmech.available(), reason="pySCATMECH is installed")

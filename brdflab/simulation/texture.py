@@ -3,7 +3,8 @@ BRDFLab's lobe viewer shows simulations: computed straight from the simulation (
 table), coarse for quick feedback, then fine.
 
 SCATMECH kinds are evaluated at the texel centres; ray-bounce kinds trace rays from wi
-and histogram them over the texels (rays ∝ texels, so the noise per texel stays put).
+(each with the sample turned by a random azimuth, as in their isotropic tables) and
+histogram them over the texels (rays ∝ texels, so the noise per texel stays put).
 """
 
 from __future__ import annotations
@@ -62,14 +63,15 @@ class LobeTexture:
 def lobe_texture(spec: SimulationSpec, theta_i: float, phi_i: float, n: int) -> LobeTexture:
     """The texture of `spec` for wi = (θi, φi) (radians) at n θo rows."""
     t0 = time.perf_counter()
-    wi = spherical_to_cartesian(theta_i, phi_i)
     if get_kind(spec.kind).uses_rays:
         rays = max(1000, RAYS_PER_TEXEL * n * 2 * n)
         rng = np.random.default_rng([spec.seed, 10_000 + n])
         surface = microgeometry.make_surface(spec.kind, spec.params, spec.seed)
+        turn = rng.uniform(0.0, 2 * np.pi, rays)  # the sample turned under the beam, as in the tables
+        wi = spherical_to_cartesian(np.full(rays, theta_i), phi_i + turn)
         esc = trace(surface, microgeometry.make_facet(spec.params), wi, rays, rng, spec.params["max_bounces"])
         theta = np.arccos(np.clip(esc.directions[:, 2], -1, 1))
-        phi = np.mod(np.arctan2(esc.directions[:, 1], esc.directions[:, 0]), 2 * np.pi)
+        phi = np.mod(np.arctan2(esc.directions[:, 1], esc.directions[:, 0]) - turn[esc.rays], 2 * np.pi)
         it = np.clip((theta / (0.5 * np.pi) * n).astype(np.int64), 0, n - 1)
         ip = np.clip((phi / (2 * np.pi) * 2 * n).astype(np.int64), 0, 2 * n - 1)
         flat = it * 2 * n + ip
@@ -81,5 +83,6 @@ def lobe_texture(spec: SimulationSpec, theta_i: float, phi_i: float, n: int) -> 
         theta = (np.arange(n) + 0.5) / n * 0.5 * np.pi
         phi = (np.arange(n) + 0.5) / n * 2 * np.pi
         wo = spherical_to_cartesian(theta[:, None], phi[None, :]).reshape(-1, 3)
+        wi = spherical_to_cartesian(theta_i, phi_i)
         values = scatmech.evaluate_chunk(spec.kind, spec.params, np.broadcast_to(wi, wo.shape), wo).T.reshape(3, n, n)
     return LobeTexture(values, theta_i, phi_i, time.perf_counter() - t0)
