@@ -70,6 +70,13 @@ class Workspace:
         ref.sha256 = ref.current_sha256()
         return cls(BRDFDocument(ref), None, data, dirty=True)
 
+    @classmethod
+    def simulated(cls, spec) -> "Workspace":
+        """A new, unsaved document holding the simulated material `spec` (its table built or cached)."""
+        from brdflab.simulation.material import reference_of, simulated_material
+
+        return cls(BRDFDocument(reference_of(spec)), None, simulated_material(spec), dirty=True)
+
     def save(self, path: Path | None = None) -> Path:
         target = Path(path) if path else self.path
         if target is None:

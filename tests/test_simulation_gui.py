@@ -68,6 +68,13 @@ def test_saved_panel_material_opens_in_the_main_window(panel, qtbot, tmp_path):
     source = w.workspace.source
     assert source is not None and source.spec.kind == "VGrooves"
     assert w.workspace.guess is not None  # the Material dock edits the next fit's guess, as for measured data
-    dock = w.show_simulation() or w._simulation_dock.widget()
+    w.show_simulation()
+    dock = w._simulation_dock.widget()
     assert dock.spec.kind == "VGrooves"
+    dock.spec = SimulationSpec("SpheresOnPlane", {"coverage": 0.3}, seed=3, samples=1000, resolution=8)  # as edited
+    dock.use_button.click()
+    qtbot.waitUntil(lambda: not w.loading and w.workspace.source.spec.kind == "SpheresOnPlane", timeout=60000)
+    assert w.workspace.dirty and w.workspace.path is None
+    w.workspace.save(tmp_path / "spheres.xml")
+    assert 'model="SpheresOnPlane"' in (tmp_path / "spheres.xml").read_text()
     dock.shutdown()

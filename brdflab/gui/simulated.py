@@ -29,6 +29,7 @@ class SimulatedPanel(QWidget):
     """Kind, parameters, incidence and a lobe view of one simulated material."""
 
     texture_shown = Signal(int, float)  # level index, seconds
+    use_requested = Signal(object)  # the spec to open as the window's material
     failed = Signal(str)
     _ready = Signal(int, int, object)  # generation, level, texture (from the worker)
 
@@ -53,8 +54,12 @@ class SimulatedPanel(QWidget):
         self.view = LobeView()
         save_button = QPushButton("Save…")
         save_button.clicked.connect(self._save_dialog)
+        self.use_button = QPushButton("Use")
+        self.use_button.setToolTip("make this the window's material (its table is built in the background)")
+        self.use_button.clicked.connect(lambda: self.use_requested.emit(self.spec))
         top = QHBoxLayout()
         top.addWidget(self.kind, 1)
+        top.addWidget(self.use_button)
         top.addWidget(save_button)
         layout = QVBoxLayout(self)
         layout.addLayout(top)
@@ -173,6 +178,7 @@ def show_simulation_dock(window) -> SimulatedPanel:
         spec = getattr(source, "spec", None) if isinstance(getattr(source, "spec", None), SimulationSpec) else None
         panel = SimulatedPanel(spec)
         panel.failed.connect(window.statusBar().showMessage)
+        panel.use_requested.connect(lambda s: use_in_window(window, s))
         dock = QDockWidget("Simulation", window)
         dock.setObjectName("Simulation")
         dock.setWidget(panel)
@@ -181,3 +187,18 @@ def show_simulation_dock(window) -> SimulatedPanel:
     dock.show()
     dock.raise_()
     return dock.widget()
+
+
+def use_in_window(window, spec: SimulationSpec) -> None:
+    """Make `spec` the window's material: its table is built off the GUI thread (the window's
+    loader, with its busy indicator), then every view shows it and Fitting can fit it."""
+    from brdflab.workspace import Workspace
+
+    if not window.maybe_save():
+        return
+
+    def apply(workspace: Workspace) -> None:
+        window.set_workspace(workspace)
+        window.statusBar().showMessage(f"simulated {spec.kind} ({workspace.source.seconds:.1f} s)", 5000)
+
+    window._load("simulation", Path(spec.kind), lambda _: Workspace.simulated(spec), apply)
