@@ -38,15 +38,17 @@ def test_coarse_then_fine_texture_with_times_and_a_restart_on_change(panel, qtbo
     panel.texture_shown.connect(lambda level, s: shown.append(level))
     qtbot.waitUntil(lambda: shown[-2:] == [0, 1], timeout=60000)
     assert "coarse 6×12" in panel.status.text() and "fine 10×20" in panel.status.text()
-    assert panel.view.viewer._layers[0].source is panel.shown
+    if panel.view.ctx is not None:  # (a view without OpenGL still gets its textures)
+        assert panel.view.viewer._layers[0].source is panel.shown
     peak_narrow = panel.shown.values.max()
     shown.clear()
     panel._editors["rms_slope"].setValue(0.6)  # as a person edits the spin box
     qtbot.waitUntil(lambda: shown[-2:] == [0, 1], timeout=60000)
     assert panel.spec.params["rms_slope"] == pytest.approx(0.6)
     assert panel.shown.values.max() < 0.8 * peak_narrow  # a rougher surface: a lower peak (0.66× in 9° texels)
-    img = panel.view.grabFramebuffer()
-    assert not img.isNull()
+    if panel.view.ctx is not None:
+        assert panel.view.viewer._layers[0].source is panel.shown
+        assert not panel.view.grabFramebuffer().isNull()
 
 
 def test_saved_panel_material_opens_in_the_main_window(panel, qtbot, tmp_path):

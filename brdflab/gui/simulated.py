@@ -77,7 +77,7 @@ class SimulatedPanel(QWidget):
         self.kind.currentIndexChanged.connect(self._kind_changed)
         self.theta_i.valueChanged.connect(lambda _: self._restart_timer.start())
         self._ready.connect(self._show)
-        self.view.when_ready(self.restart)
+        self.restart()  # textures do not wait for OpenGL; the view takes the latest when ready
 
     # --- parameters ---------------------------------------------------------------------
     def _build_editors(self) -> None:
