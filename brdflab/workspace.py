@@ -15,7 +15,7 @@ from brdflab.sources.measured import read_measured
 from brdflab.sources.files import is_xml, resolve_measured
 from brdflab.io.xmlio import BRDFDocument, Fitting, MeasuredReference, SimulatedReference, load, save
 
-OPEN_FILTER = "Materials (analytic, measured, simulated) and measurements (*.xml *.binary *.slice *.txt *.csv *.carpaint *.bin);;All files (*)"
+OPEN_FILTER = "Materials and measurements (*.xml *.binary *.slice *.txt *.csv *.carpaint *.bin);;All files (*)"
 
 
 def default_material() -> AnalyticMaterial:

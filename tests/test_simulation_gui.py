@@ -3,7 +3,6 @@ and a simulated material opened in the main window like measured data."""
 
 import os
 
-import numpy as np
 import pytest
 
 pytestmark = pytest.mark.skipif(
