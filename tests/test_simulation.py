@@ -51,8 +51,10 @@ def test_bad_parameters_are_refused_with_the_reason():
 
 def test_ray_bounce_tables_are_deterministic_for_a_seed_whatever_the_workers():
     spec = SimulationSpec("SpheresOnPlane", {"facet": "lambertian", "max_bounces": 2}, seed=5, samples=1000, resolution=8)
+    seen = []
     one = compute_table(spec, workers=1).values
-    two = compute_table(spec, workers=2).values
+    two = compute_table(spec, progress=lambda f, message: seen.append(f), workers=2).values
+    assert seen == sorted(seen) and seen[-1] == 1.0 and len(seen) == 4  # one report per incident angle
     assert np.array_equal(one, two)
     other = compute_table(SimulationSpec("SpheresOnPlane", {"facet": "lambertian", "max_bounces": 2}, seed=6, samples=1000,
                                          resolution=8), workers=1).values
