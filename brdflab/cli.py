@@ -8,6 +8,7 @@ status 2 (never a traceback).
 from __future__ import annotations
 
 import argparse
+import os
 import io
 import json
 import sys
@@ -269,9 +270,23 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def cmd_gui(args: argparse.Namespace) -> int:
+    problem = display_problem(os.environ)
+    if problem:
+        raise BRDFLabError(problem)
     from brdflab.gui.app import run
 
     return run(getattr(args, "file", None))
+
+
+def display_problem(env) -> str | None:
+    """Why the GUI cannot open a window here (Qt itself would abort with signal 6), or None."""
+    platform = env.get("QT_QPA_PLATFORM", "")
+    if platform and not platform.startswith(("xcb", "wayland")):
+        return None  # offscreen, vnc, eglfs …: Qt needs no display server
+    if env.get("DISPLAY") or env.get("WAYLAND_DISPLAY"):
+        return None
+    return ("no display to open the window on: run it as `xvfb-run -a brdflab`, "
+            "or set DISPLAY to an X server")
 
 
 # --- parser ------------------------------------------------------------------------------

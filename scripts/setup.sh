@@ -1,19 +1,25 @@
 #!/usr/bin/env bash
-# Install what brdflab needs on a fresh Debian machine (root, Python ≥ 3.11).
-#   bash scripts/setup.sh          the application
-#   bash scripts/setup.sh --test   the application and its test tools (Xvfb, pytest, ...)
+# Install brdflab into a virtual environment, .venv, on a fresh Debian machine (root,
+# Python ≥ 3.11), with the system libraries that Qt and EGL need.
+#   bash scripts/setup.sh          the application            (then: scripts/gui)
+#   bash scripts/setup.sh --test   and its test tools (Xvfb, pytest, import-linter, …)
 #   add --scatmech                 also pySCATMECH (optional; compiles SCATMECH's C++, minutes)
+# PYTHON=/path/to/python3 chooses the interpreter (default: python3 on the PATH). A virtual
+# environment keeps Debian's own Python untouched (PEP 668 refuses system-wide pip installs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-SYSTEM_PACKAGES=(libegl1 libgl1 libgl1-mesa-dri libglx-mesa0 libegl-mesa0 libfontconfig1 libdbus-1-3
-  libxkbcommon0 libxkbcommon-x11-0 libxcb-cursor0 libxcb-icccm4 libxcb-image0 libxcb-keysyms1
-  libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xinerama0 libxcb-xkb1 libxcb-xfixes0 libx11-xcb1)
+PYTHON="${PYTHON:-python3}"
+SYSTEM_PACKAGES=(python3-venv python3-pip libglib2.0-0 libegl1 libgl1 libgl1-mesa-dri libglx-mesa0
+  libegl-mesa0 libfontconfig1 libdbus-1-3 libxkbcommon0 libxkbcommon-x11-0 libxcb-cursor0 libxcb-icccm4
+  libxcb-image0 libxcb-keysyms1 libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xinerama0
+  libxcb-xkb1 libxcb-xfixes0 libx11-xcb1 xvfb xauth)
 EXTRA_LIST=()
 for arg in "$@"; do
   case "$arg" in
-    --test) SYSTEM_PACKAGES+=(xvfb xauth); EXTRA_LIST+=(test) ;;
+    --test) EXTRA_LIST+=(test) ;;
     --scatmech) SYSTEM_PACKAGES+=(g++ make python3-dev); EXTRA_LIST+=(scatmech) ;;
+    *) echo "setup.sh: unknown option $arg (use --test, --scatmech)" >&2; exit 2 ;;
   esac
 done
 EXTRAS=""
@@ -32,4 +38,9 @@ if command -v apt-get >/dev/null 2>&1 && [[ $(id -u) -eq 0 ]]; then
   fi
 fi
 
-python3 -m pip install --quiet --disable-pip-version-check -e ".${EXTRAS}"
+if [[ ! -x .venv/bin/python ]]; then
+  "$PYTHON" -m venv .venv
+fi
+.venv/bin/python -m pip install --quiet --disable-pip-version-check --upgrade pip
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -e ".${EXTRAS}"
+echo "brdflab is installed in $(pwd)/.venv: run scripts/gui, or .venv/bin/brdflab --help"

@@ -120,3 +120,12 @@ def test_console_script_runs_without_traceback(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "brdflab", "info", str(missing)], capture_output=True, text=True)
     assert proc.returncode == 2
     assert proc.stderr.strip() == f"brdflab info: {missing}: no such file"
+
+
+def test_gui_without_a_display_says_what_to_do():
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM")}
+    proc = subprocess.run([sys.executable, "-m", "brdflab"], capture_output=True, text=True, env=env, timeout=60)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "xvfb-run" in proc.stderr and "Traceback" not in proc.stderr

@@ -196,19 +196,3 @@ def test_no_opengl_is_a_clear_error(monkeypatch, tmp_path, capsys):
     code = main(["render", str(data_dir("materials") / "lambertian.xml"), "--size", "8,8", "--out", str(tmp_path / "o.png")])
     err = capsys.readouterr().err
     assert code == 2 and "no OpenGL 3.3 context available" in err
-
-
-def test_bench_quick_writes_numbers_and_charts(tmp_path, capsys):
-    out = tmp_path / "bench"
-    assert main(["bench", "--quick", "--out", str(out), "--json"]) == 0
-    payload = json.loads(capsys.readouterr().out.splitlines()[-1])
-    data = json.loads((out / "bench.json").read_text())
-    assert {"models", "render"} <= set(data)
-    fis = data["render"]["fis"]
-    assert {r["material"] for r in fis} == {"diffuse", "glossy", "anisotropic"}
-    # more samples cost more time and give less error
-    for name in ("diffuse", "glossy", "anisotropic"):
-        rows = sorted((r for r in fis if r["material"] == name), key=lambda r: r["samples"])
-        assert rows[-1]["relative_rmse"] < rows[0]["relative_rmse"]
-    for chart in payload["files"][1:]:
-        assert (out / chart).stat().st_size > 10_000

@@ -173,7 +173,7 @@ def test_entities_and_doctypes_are_refused(tmp_path):
     secret.write_text("TOP SECRET")
     xxe = f"""<?xml version="1.0"?><!DOCTYPE BRDF [<!ENTITY x SYSTEM "file://{secret}">]>
     <BRDF><Material><Name>&x;</Name><Type>Analytic</Type></Material></BRDF>""".encode()
-    with pytest.raises(BRDFLabError, match="DOCTYPE"):
+    with pytest.raises(BRDFLabError, match="entity"):
         xmlio.parse_bytes(xxe, "evil.xml")
     bomb = b"""<?xml version="1.0"?><!DOCTYPE lolz [<!ENTITY lol "lol"><!ENTITY lol2 "&lol;&lol;&lol;">]>
     <BRDF>&lol2;</BRDF>"""

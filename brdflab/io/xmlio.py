@@ -12,6 +12,7 @@ import copy
 import hashlib
 import math
 import os
+import re
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -116,6 +117,7 @@ class BRDFDocument:
     extra: list = field(default_factory=list)
     path: Path | None = None
     warnings: list[str] = field(default_factory=list)
+    doctype: str | None = None  # the name of a bare <!DOCTYPE NAME> line, kept on save
 
     def describe(self) -> dict:
         return {
@@ -371,10 +373,34 @@ def parse_bytes(data: bytes, path: Path | str | None = None, base_dir: Path | No
         raise BRDFLabError(f"malformed XML: {e}", path) from None
     if root is None:
         raise BRDFLabError("empty XML document", path)
-    docinfo = root.getroottree().docinfo
-    if docinfo.internalDTD is not None or docinfo.doctype:
-        raise BRDFLabError("DOCTYPE declarations are not accepted in material files", path)
-    return reader.document(root)
+    doctype = _checked_doctype(data, path)
+    if any(isinstance(node, etree._Entity) for node in root.iter()):
+        raise BRDFLabError("entity references are not accepted in material files", path)
+    doc = reader.document(root)
+    doc.doctype = doctype
+    return doc
+
+
+_BARE_DOCTYPE = re.compile(rb"<!DOCTYPE\s+([A-Za-z_][\w.-]*)\s*>")
+
+
+def _checked_doctype(data: bytes, path) -> str | None:
+    """The name of a bare `<!DOCTYPE NAME>` line (as BRDFLab's Qt writer puts there), or None.
+
+    A DOCTYPE with an internal subset or an external identifier can declare or load entities,
+    so it is refused, as is any entity declaration anywhere in the file.
+    """
+    if b"<!ENTITY" in data:
+        raise BRDFLabError("entity declarations are not accepted in material files", path)
+    start = data.find(b"<!DOCTYPE")
+    if start < 0:
+        return None
+    match = _BARE_DOCTYPE.match(data, start)
+    if match is None or data.find(b"<!DOCTYPE", match.end()) >= 0:
+        raise BRDFLabError(
+            "only a bare DOCTYPE line (e.g. <!DOCTYPE BRDF>) is accepted in material files; "
+            "internal subsets and SYSTEM/PUBLIC identifiers are refused", path)
+    return match.group(1).decode("ascii")
 
 
 def load(path: str | os.PathLike) -> BRDFDocument:
@@ -460,7 +486,9 @@ def document_element(doc: BRDFDocument) -> etree._Element:
 
 
 def to_bytes(doc: BRDFDocument) -> bytes:
-    return etree.tostring(document_element(doc), pretty_print=True, xml_declaration=True, encoding="UTF-8")
+    doctype = f"<!DOCTYPE {doc.doctype}>" if doc.doctype else None
+    return etree.tostring(
+        document_element(doc), pretty_print=True, xml_declaration=True, encoding="UTF-8", doctype=doctype)
 
 
 def atomic_write(path: str | os.PathLike, data: bytes) -> None:
