@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import moderngl
@@ -155,7 +156,7 @@ class LobeView(_GLView):
 class ObjectView(_GLView):
     """The object view; refines progressively while the view is still."""
 
-    STEP_SAMPLES = 8
+    STEP_BUDGET_S = 0.025  # one refinement step may hold the GUI thread this long
     busy = Signal(str)  # a long preparation started ("" when it is over)
 
     def __init__(self, parent=None) -> None:
@@ -167,6 +168,7 @@ class ObjectView(_GLView):
         self.gamma = 0.0  # 0: sRGB
         self.reinhard = False
         self._progressive = None
+        self._step_samples = 1  # adapted so that a step costs about STEP_BUDGET_S
         self.blank = False  # nothing to show (a material without lobes): draw the background
         self._timer = QTimer(self)
         self._timer.setInterval(0)
@@ -237,7 +239,12 @@ class ObjectView(_GLView):
             p = self._progressive
             target = self.settings.samples if self.settings.mode == "fis" else 1
             if p.samples < target:
-                p.step(min(self.STEP_SAMPLES * (1 + p.steps), target - p.samples))
+                n = min(self._step_samples, target - p.samples)
+                began = time.perf_counter()
+                p.step(n)
+                self.ctx.finish()  # llvmpipe renders lazily: time the real work
+                spent = time.perf_counter() - began
+                self._step_samples = int(max(1, min(256, n * self.STEP_BUDGET_S / max(spent, 1e-4))))
                 self._timer.start()
             else:
                 self._timer.stop()

@@ -146,6 +146,10 @@ class MainWindow(QMainWindow):
         self.tabifyDockWidget(self._docks["Plots"], self._docks["XML"])
         self._docks["Plots"].raise_()
 
+        self._xml_timer = QTimer(self, singleShot=True, interval=150)
+        self._xml_timer.timeout.connect(self._refresh_xml)
+        self._xml_stale = False
+        self._docks["XML"].visibilityChanged.connect(self._xml_dock_shown)
         self._plot_timer = QTimer(self, singleShot=True, interval=250)
         self._plot_timer.timeout.connect(self._refresh_plots)
         self._build_menus()
@@ -270,9 +274,20 @@ class MainWindow(QMainWindow):
         self._refresh_text()
 
     def _refresh_text(self) -> None:
-        self.xml.setPlainText(to_bytes(self.workspace.document).decode())
         self._update_title()
+        self._xml_timer.start()  # coalesced: rapid edits rewrite the XML text once
         self._plot_timer.start()
+
+    def _refresh_xml(self) -> None:
+        """The XML text, only while someone can see it (it costs a serialisation)."""
+        self._xml_stale = not (self._docks["XML"].isVisible() or self.xml.toPlainText() == "")
+        if not self._xml_stale:
+            self.xml.setPlainText(to_bytes(self.workspace.document).decode())
+
+    @Slot(bool)
+    def _xml_dock_shown(self, shown: bool) -> None:
+        if shown and self._xml_stale:
+            self._refresh_xml()
 
     def _refresh_plots(self) -> None:
         try:
@@ -574,6 +589,8 @@ class MainWindow(QMainWindow):
         if self._thread is not None:
             self._thread.quit()
             self._thread.wait(5000)
+        self.editor.shutdown()
+        self.plots.shutdown()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState())
         event.accept()
