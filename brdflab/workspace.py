@@ -7,6 +7,7 @@ widget ever holds the only copy of anything a file or a fit needs.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import os
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
@@ -76,6 +77,26 @@ class Workspace:
         from brdflab.simulation.material import reference_of, simulated_material
 
         return cls(BRDFDocument(reference_of(spec)), None, simulated_material(spec), dirty=True)
+
+    @property
+    def data_missing(self) -> bool:
+        """A measured material whose data file could not be loaded (its fits still work)."""
+        return isinstance(self.document.material, MeasuredReference) and self.source is None
+
+    def locate_data(self, data_path: Path) -> None:
+        """Point a measured material at its data file found elsewhere, and load it."""
+        ref = self.document.material
+        if not isinstance(ref, MeasuredReference):
+            raise BRDFLabError("this material names no measured data file")
+        base = self.path.parent if self.path else None
+        name = os.path.relpath(Path(data_path).resolve(), base.resolve()) if base else str(Path(data_path).resolve())
+        moved = MeasuredReference(ref.type, Path(name).as_posix(), base, ref.sha256, ref.extra)
+        source = resolve_measured(moved)
+        self.document.material, self.source = moved, source
+        self.messages = []
+        if ref.sha256 and moved.current_sha256() != ref.sha256:
+            self.messages.append(f"{moved.path}: not the data file its fits were made from (sha256 differs)")
+        self.dirty = True
 
     def save(self, path: Path | None = None) -> Path:
         target = Path(path) if path else self.path

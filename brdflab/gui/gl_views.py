@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import moderngl
@@ -33,9 +34,12 @@ class _GLView(QOpenGLWidget):
         self.ctx: moderngl.Context | None = None
         self._last: QPointF | None = None
         self._pending: list = []
+        self.gl_inits = 0  # Qt re-runs initializeGL with a new context when the widget moves window
         self.setMinimumSize(240, 200)
 
     def initializeGL(self) -> None:
+        self.gl_inits += 1
+        self.context().aboutToBeDestroyed.connect(self._context_lost, Qt.DirectConnection)
         try:
             self.ctx = moderngl.create_context()
             self.setup()
@@ -46,6 +50,15 @@ class _GLView(QOpenGLWidget):
         pending, self._pending = self._pending, []
         for fn in pending:
             fn()
+
+    def _context_lost(self) -> None:
+        """Qt is about to destroy the GL context (re-parenting, floating a dock): every GL
+        object dies with it. The next initializeGL rebuilds them from the views' state."""
+        self.ctx = None
+        self.context_lost()
+
+    def context_lost(self) -> None:
+        """Drop references to GL objects of the dying context (never release them)."""
 
     def when_ready(self, fn) -> None:
         """Run fn now if GL is initialised, else right after initialisation. Inside
@@ -109,7 +122,10 @@ class LobeView(_GLView):
     incident_changed = Signal(float, float)
 
     def setup(self) -> None:
+        old = getattr(self, "viewer", None)
         self.viewer = LobeViewer(self.ctx)
+        if old is not None:  # a new context: the same lobes, settings and camera
+            self.viewer.adopt(old)
 
     def camera(self):
         return self.viewer.camera
@@ -140,7 +156,7 @@ class LobeView(_GLView):
 class ObjectView(_GLView):
     """The object view; refines progressively while the view is still."""
 
-    STEP_SAMPLES = 8
+    STEP_BUDGET_S = 0.025  # one refinement step may hold the GUI thread this long
     busy = Signal(str)  # a long preparation started ("" when it is over)
 
     def __init__(self, parent=None) -> None:
@@ -152,13 +168,23 @@ class ObjectView(_GLView):
         self.gamma = 0.0  # 0: sRGB
         self.reinhard = False
         self._progressive = None
+        self._step_samples = 1  # adapted so that a step costs about STEP_BUDGET_S
+        self.blank = False  # nothing to show (a material without lobes): draw the background
         self._timer = QTimer(self)
         self._timer.setInterval(0)
         self._timer.timeout.connect(self._refine)
 
     def setup(self) -> None:
+        old = getattr(self, "renderer", None)
         self.renderer = ObjectRenderer(self.ctx)
         self.display = Display(self.ctx)
+        if old is not None:  # a new context: the same scene, rebuilt on it
+            self.renderer.adopt(old)
+            self._timer.start()
+
+    def context_lost(self) -> None:
+        self._progressive = None
+        self._timer.stop()
 
     def camera(self):
         return self.renderer.camera
@@ -198,7 +224,7 @@ class ObjectView(_GLView):
     def _refine(self) -> None:
         """Render more samples, outside paint events (Qt's paint-time GL state is not
         moderngl's), then ask for a repaint that only displays the image."""
-        if self.ctx is None or getattr(self.renderer, "material", None) is None:
+        if self.ctx is None or self.blank or getattr(self.renderer, "material", None) is None:
             return
         w, h = self.pixel_size()
         self.makeCurrent()
@@ -213,7 +239,12 @@ class ObjectView(_GLView):
             p = self._progressive
             target = self.settings.samples if self.settings.mode == "fis" else 1
             if p.samples < target:
-                p.step(min(self.STEP_SAMPLES * (1 + p.steps), target - p.samples))
+                n = min(self._step_samples, target - p.samples)
+                began = time.perf_counter()
+                p.step(n)
+                self.ctx.finish()  # llvmpipe renders lazily: time the real work
+                spent = time.perf_counter() - began
+                self._step_samples = int(max(1, min(256, n * self.STEP_BUDGET_S / max(spent, 1e-4))))
                 self._timer.start()
             else:
                 self._timer.stop()
@@ -231,9 +262,9 @@ class ObjectView(_GLView):
         fbo.use()
         w, h = self.pixel_size()
         self.ctx.viewport = (0, 0, w, h)
-        if self._progressive is None or self._progressive.samples == 0:
+        if self.blank or self._progressive is None or self._progressive.samples == 0:
             fbo.clear(0.12, 0.12, 0.14, 1.0)
-            if not self._timer.isActive():
+            if not self.blank and not self._timer.isActive():
                 self._timer.start()
             return
         self.display.draw(self._progressive, self.exposure, self.reinhard, gamma=self.gamma)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence, QUndoCommand, QUndoStack
-from PySide6.QtWidgets import QDockWidget, QFileDialog, QMainWindow, QMessageBox, QProgressBar
+from PySide6.QtWidgets import QDockWidget, QFileDialog, QMainWindow, QMessageBox, QProgressBar, QPushButton
 
 from brdflab import workspace as ws_ops
 from brdflab.lighting.envmap import load_environment
@@ -100,6 +100,8 @@ class MainWindow(QMainWindow):
         self.setAcceptDrops(True)
         self.undo_stack = QUndoStack(self)
         self.undo_stack.cleanChanged.connect(self._clean_changed)
+        self.undo_stack.indexChanged.connect(self._index_changed)
+        self._unsaved_at_clean = False  # a new document (e.g. opened data) that no file holds yet
         self.workspace = Workspace.new()
         self._thread: QThread | None = None
         self._worker: FitWorker | None = None
@@ -110,6 +112,12 @@ class MainWindow(QMainWindow):
         self.load_progress.setRange(0, 0)
         self.load_progress.setVisible(False)
         self.statusBar().addPermanentWidget(self.load_progress)
+        self.locate_button = QPushButton("Locate data file…")
+        self.locate_button.setToolTip("The measured data file this material names is missing: find it")
+        self.locate_button.setVisible(False)
+        self.locate_button.clicked.connect(self.locate_data_dialog)
+        self.statusBar().addPermanentWidget(self.locate_button)
+        self._fit_owner: Workspace | None = None  # the document a running fit belongs to
 
         self.lobe_view = LobeView()
         self.object_view = ObjectView()
@@ -138,6 +146,10 @@ class MainWindow(QMainWindow):
         self.tabifyDockWidget(self._docks["Plots"], self._docks["XML"])
         self._docks["Plots"].raise_()
 
+        self._xml_timer = QTimer(self, singleShot=True, interval=150)
+        self._xml_timer.timeout.connect(self._refresh_xml)
+        self._xml_stale = False
+        self._docks["XML"].visibilityChanged.connect(self._xml_dock_shown)
         self._plot_timer = QTimer(self, singleShot=True, interval=250)
         self._plot_timer.timeout.connect(self._refresh_plots)
         self._build_menus()
@@ -233,7 +245,11 @@ class MainWindow(QMainWindow):
 
     # --- workspace ------------------------------------------------------------------------------
     def set_workspace(self, workspace: Workspace) -> None:
+        if self._worker is not None and workspace is not self._fit_owner:
+            self._worker.cancel.set()  # the running fit belongs to the document being closed
         self.workspace = workspace
+        self.locate_button.setVisible(workspace.data_missing)
+        self._unsaved_at_clean = workspace.dirty
         self.undo_stack.clear()
         self.material_changed()
         self.fittings_changed()
@@ -259,9 +275,20 @@ class MainWindow(QMainWindow):
         self._refresh_text()
 
     def _refresh_text(self) -> None:
-        self.xml.setPlainText(to_bytes(self.workspace.document).decode())
         self._update_title()
+        self._xml_timer.start()  # coalesced: rapid edits rewrite the XML text once
         self._plot_timer.start()
+
+    def _refresh_xml(self) -> None:
+        """The XML text, only while someone can see it (it costs a serialisation)."""
+        self._xml_stale = not (self._docks["XML"].isVisible() or self.xml.toPlainText() == "")
+        if not self._xml_stale:
+            self.xml.setPlainText(to_bytes(self.workspace.document).decode())
+
+    @Slot(bool)
+    def _xml_dock_shown(self, shown: bool) -> None:
+        if shown and self._xml_stale:
+            self._refresh_xml()
 
     def _refresh_plots(self) -> None:
         try:
@@ -274,8 +301,13 @@ class MainWindow(QMainWindow):
     def _clean_changed(self, clean: bool) -> None:
         self._update_title()
 
+    @Slot(int)
+    def _index_changed(self, index: int) -> None:
+        self._update_title()
+
     def _update_title(self) -> None:
-        self.workspace.dirty = self.workspace.dirty and not (self.undo_stack.isClean() and self.undo_stack.count())
+        # dirty follows the undo stack exactly: clean only at the index the file holds
+        self.workspace.dirty = self._unsaved_at_clean or not self.undo_stack.isClean()
         self.setWindowTitle(f"{self.workspace.title} — BRDFLab")
 
     def _edit(self, new_material, text: str, merge_key=None) -> None:
@@ -333,7 +365,11 @@ class MainWindow(QMainWindow):
         shown = self.workspace.original()
         if self.object_controls.show.currentText() == "fitted":
             shown = self._candidate or self.workspace.fitted() or shown
-        if shown is None or self.object_view.ctx is None:
+        if self.object_view.ctx is None:
+            return
+        self.object_view.blank = shown is None or (isinstance(shown, ws_ops.AnalyticMaterial) and not shown.lobes)
+        if self.object_view.blank:  # an empty material is valid: nothing to shade
+            self.object_view.update()
             return
 
         def apply():
@@ -430,7 +466,8 @@ class MainWindow(QMainWindow):
         def apply(workspace: Workspace) -> None:
             self._remember(Path(path))
             self.set_workspace(workspace)
-            self.statusBar().showMessage(f"opened {path}", 5000)
+            if not workspace.messages:  # never hide what set_workspace just reported
+                self.statusBar().showMessage(f"opened {path}", 5000)
 
         self._load("material", path, Workspace.open, apply)
 
@@ -440,6 +477,33 @@ class MainWindow(QMainWindow):
         if name:
             self.settings.setValue(f"folders/{kind}", str(Path(name).parent))
             opener(Path(name))
+
+    def locate_data_dialog(self) -> None:
+        ref = self.workspace.document.material
+        name, _ = QFileDialog.getOpenFileName(self, f"Locate {Path(getattr(ref, 'name', '')).name}",
+                                              self._folder("open"), OPEN_FILTER)
+        if name:
+            self.locate_data(Path(name))
+
+    def locate_data(self, path: Path) -> None:
+        """Give a measured material whose data file is missing the file found at `path`."""
+        try:
+            self.workspace.locate_data(path)
+        except BRDFLabError as e:
+            self.show_error(str(e))
+            return
+        self.undo_stack.resetClean()  # the document now differs from its file
+        self.set_workspace_keeping_history()
+
+    def set_workspace_keeping_history(self) -> None:
+        ws = self.workspace
+        self._unsaved_at_clean = True
+        self.locate_button.setVisible(ws.data_missing)
+        ws.guess = None
+        self.material_changed()
+        self.fittings_changed()
+        for message in ws.messages:
+            self.statusBar().showMessage(message, 10000)
 
     def open_dialog(self) -> None:
         if self.maybe_save():
@@ -486,6 +550,7 @@ class MainWindow(QMainWindow):
         except BRDFLabError as e:
             self.show_error(str(e))
             return False
+        self._unsaved_at_clean = False
         self.undo_stack.setClean()
         self._remember(path)
         self._refresh_text()
@@ -531,6 +596,8 @@ class MainWindow(QMainWindow):
         if self._thread is not None:
             self._thread.quit()
             self._thread.wait(5000)
+        self.editor.shutdown()
+        self.plots.shutdown()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState())
         event.accept()
@@ -561,6 +628,7 @@ class MainWindow(QMainWindow):
             self.show_error(str(e))
             return
         options = FitOptions(metric=metric)
+        self._fit_owner = self.workspace
         self._worker = FitWorker(start, samples, options)
         self._thread = QThread(self)
         self._worker.moveToThread(self._thread)
@@ -591,7 +659,12 @@ class MainWindow(QMainWindow):
         thread.wait()
 
     def _fit_finished(self, result: FitResult) -> None:
+        owner, self._fit_owner = self._fit_owner, None
         self._end_fit()
+        if owner is not self.workspace:  # its document was closed: never store it in another
+            self.statusBar().showMessage("the running fit was stopped: its document was closed", 10000)
+            self.fitting.status.setText("fit stopped (its document was closed)")
+            return
         old = (tuple(self.workspace.document.fittings), self.workspace.shown_fit)
         new_list = list(old[0]) + [fitting_of(result)]
         self.undo_stack.push(ReplaceFittings(self, old, (tuple(new_list), len(new_list) - 1), "Fit"))
@@ -599,6 +672,7 @@ class MainWindow(QMainWindow):
                                     f"{result.seconds:.2f} s ({result.status})")
 
     def _fit_failed(self, message: str) -> None:
+        self._fit_owner = None
         self._end_fit()
         self.fitting.status.setText(message)
         self.show_error(message)

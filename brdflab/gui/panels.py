@@ -20,6 +20,7 @@ from PySide6.QtWidgets import (
     QPlainTextEdit,
     QProgressBar,
     QPushButton,
+    QSizePolicy,
     QSlider,
     QSpinBox,
     QTreeWidget,
@@ -28,6 +29,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from brdflab.gui.background import LatestOnly
 from brdflab.material.albedo import energy_check
 from brdflab.fitting.lm import METRICS
 from brdflab.material.analytic import AnalyticMaterial
@@ -76,6 +78,10 @@ class ParameterRow(QWidget):
             return min(self.upper, max(self.lower, self.lower + math.exp(a + t * (b - a)) - c))
         return self.lower + t * (self.upper - self.lower)
 
+    def held(self) -> bool:
+        """Whether the user is working this row now (dragging, or typing in it)."""
+        return self.slider.isSliderDown() or self.spin.hasFocus()
+
     def set_value(self, v: float) -> None:
         with QSignalBlocker(self.spin), QSignalBlocker(self.slider):
             self.spin.setValue(v)
@@ -115,6 +121,11 @@ class MaterialEditor(QWidget):
         self.channels.setKeyboardTracking(False)
         self.channels.valueChanged.connect(self.channels_changed.emit)
         self.energy = QLabel()
+        self.energy.setWordWrap(True)
+        self._energy_job = LatestOnly(energy_summary, self)
+        self._energy_job.done.connect(self._show_energy)
+        self._energy_job.failed.connect(lambda m: self.energy.setText(f"Energy check failed: {m}"))
+        self._rows: dict = {}  # ("param", name) or ("scale", channel) → ParameterRow of the shown lobe
         self.params = QFormLayout()
         params_box = QWidget()
         params_box.setLayout(self.params)
@@ -139,6 +150,13 @@ class MaterialEditor(QWidget):
         return None if item is None else item.data(0, Qt.UserRole)
 
     def show_material(self, material: AnalyticMaterial | None) -> None:
+        """Show `material`. When only values changed (same lobes, channels, combination), the
+        rows are updated in place, so a dragged slider or a focused spin box keeps working."""
+        if material is not None and self.material is not None and _shape(material) == _shape(self.material):
+            self.material = material
+            self._update_values()
+            self._request_energy()
+            return
         keep = self.current()
         self.material = material
         self.setEnabled(material is not None)
@@ -146,11 +164,13 @@ class MaterialEditor(QWidget):
             self.tree.clear()
             if material is None:
                 self._clear_params()
+                self._energy_job.request(None)
                 self.energy.setText("A measured material without its data: its fits are listed in Fitting.")
+                self.energy.setStyleSheet("")
                 return
             for k, lobe in enumerate(material.lobes):
                 label = lobe.model.name + (f"  (channel {lobe.channel})" if lobe.channel is not None else "")
-                item = QTreeWidgetItem([label, ", ".join(f"{s:.4g}" for s in lobe.scale)])
+                item = QTreeWidgetItem([label, _scale_text(lobe)])
                 item.setData(0, Qt.UserRole, k)
                 self.tree.addTopLevelItem(item)
             if material.lobes:
@@ -160,14 +180,44 @@ class MaterialEditor(QWidget):
             self.combination.setCurrentText(material.combination)
             self.channels.setValue(material.n_channels)
         self._show_lobe()
-        report = energy_check(material) if material.lobes else None
-        if report is None:
-            self.energy.setText("No lobes.")
-        elif report.conserves:
-            self.energy.setText("Energy: albedo ≤ 1 for every view (max " + ", ".join(f"{a:.3f}" for a in report.max_albedo) + ")")
+        self._request_energy()
+
+    def shutdown(self) -> None:
+        """Stop the editor's worker process (the window is closing)."""
+        self._energy_job.shutdown()
+
+    def _update_values(self) -> None:
+        for k, lobe in enumerate(self.material.lobes):
+            self.tree.topLevelItem(k).setText(1, _scale_text(lobe))
+        k = self.current()
+        if k is None or k >= len(self.material.lobes):
+            return
+        lobe = self.material.lobes[k]
+        values = {("param", n): v for n, v in lobe.params.items()}
+        values.update({("scale", c): s for c, s in enumerate(lobe.scale)})
+        for key, row in self._rows.items():
+            if key in values and not row.held():
+                row.set_value(values[key])
+
+    def _request_energy(self) -> None:
+        if not self.material.lobes:
+            self._energy_job.request(None)
+            self.energy.setText("No lobes: the material reflects nothing.")
+            self.energy.setStyleSheet("")
+            return
+        if not self._energy_job.busy:
+            self.energy.setStyleSheet("color: #707070")
+        self._energy_job.request(self.material)
+
+    def _show_energy(self, summary) -> None:
+        if summary is None:
+            return
+        conserves, max_albedo = summary
+        if conserves:
+            self.energy.setText("Energy: albedo ≤ 1 for every view (max " + ", ".join(f"{a:.3f}" for a in max_albedo) + ")")
             self.energy.setStyleSheet("color: #2a7a2a")
         else:
-            self.energy.setText("⚠ Energy: albedo up to " + ", ".join(f"{a:.3f}" for a in report.max_albedo) + " > 1")
+            self.energy.setText("⚠ Energy: albedo up to " + ", ".join(f"{a:.3f}" for a in max_albedo) + " > 1")
             self.energy.setStyleSheet("color: #b03030; font-weight: bold")
 
     def _clear_params(self) -> None:
@@ -176,6 +226,7 @@ class MaterialEditor(QWidget):
 
     def _show_lobe(self) -> None:
         self._clear_params()
+        self._rows = {}
         k = self.current()
         if self.material is None or k is None or k >= len(self.material.lobes):
             return
@@ -185,6 +236,7 @@ class MaterialEditor(QWidget):
             row.setToolTip(p.doc)
             row.edited.connect(lambda v, name=p.name, k=k: self.parameter_edited.emit(k, name, v))
             self.params.addRow(p.name, row)
+            self._rows[("param", p.name)] = row
         for c, s in enumerate(lobe.scale):
             row = ParameterRow(0.0, max(10.0, 2 * s), s, False)
             channel = c if lobe.channel is None else lobe.channel
@@ -196,7 +248,25 @@ class MaterialEditor(QWidget):
             bl.addWidget(swatch)
             bl.addWidget(row, 1)
             row.edited.connect(lambda v, c=c, k=k: self.scale_edited.emit(k, c, v))
+            self._rows[("scale", c)] = row
             self.params.addRow("value" if lobe.channel is not None else f"scale {c}", box)
+
+
+def _shape(material: AnalyticMaterial) -> tuple:
+    """What decides the editor's rows: values may change under it without a rebuild."""
+    return material.combination, material.n_channels, tuple((l.model.name, l.channel) for l in material.lobes)
+
+
+def _scale_text(lobe) -> str:
+    return ", ".join(f"{s:.4g}" for s in lobe.scale)
+
+
+def energy_summary(material: AnalyticMaterial | None):
+    """(conserves, max albedo per channel) — run in a worker process by the editor."""
+    if material is None:
+        return None
+    report = energy_check(material)
+    return bool(report.conserves), [float(a) for a in report.max_albedo]
 
 
 class LobeControls(QWidget):
@@ -382,63 +452,133 @@ class FittingPanel(QWidget):
 
 
 class PlotsPanel(QWidget):
-    """BRDF Explorer's plots: the plane of incidence (polar), a θh × θd slice, albedo(θ)."""
+    """BRDF Explorer's plots: the plane of incidence (polar), a θh × θd slice, albedo(θ).
+
+    The figure is computed and drawn (matplotlib, Agg) in a worker process and shown as an
+    image, so neither the evaluation nor matplotlib's layout ever blocks the window."""
 
     def __init__(self) -> None:
         super().__init__()
-        from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
-        from matplotlib.figure import Figure
-
-        self.figure = Figure(figsize=(9, 3), tight_layout=True)
-        self.canvas = FigureCanvasQTAgg(self.figure)
-        QVBoxLayout(self).addWidget(self.canvas)
+        self.image = QLabel(alignment=Qt.AlignCenter)
+        self.image.setMinimumSize(200, 120)
+        self.image.setSizePolicy(QSizePolicy.Ignored, QSizePolicy.Ignored)
+        self.status = QLabel("")
+        self.status.setStyleSheet("color: #707070")
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(self.image, 1)
+        lay.addWidget(self.status)
+        self._job = LatestOnly(draw_plots, self)
+        self._job.done.connect(self._show)
+        self._job.failed.connect(lambda m: self.status.setText(f"plots failed: {m}"))
+        self._last: tuple | None = None
 
     def show_sources(self, original, fitted, theta_i_deg: float) -> None:
-        from brdflab.material.albedo import directional_albedo
-        from brdflab.geometry.halfdiff import from_half_diff
-        from brdflab.geometry.vec import spherical_to_cartesian
+        self._last = (original, fitted, theta_i_deg)
+        self._request()
 
-        self.figure.clear()
-        ax1 = self.figure.add_subplot(1, 3, 1, projection="polar")
-        ax2 = self.figure.add_subplot(1, 3, 2)
-        ax3 = self.figure.add_subplot(1, 3, 3)
-        t = np.radians(np.linspace(-89.5, 89.5, 361))
-        wo = spherical_to_cartesian(np.abs(t), np.where(t < 0, np.pi, 0.0))
-        wi = np.broadcast_to(spherical_to_cartesian(np.radians(theta_i_deg), np.pi), wo.shape)
-        lum = np.array([0.2126, 0.7152, 0.0722])
-        for source, label, style in ((original, "original", "-"), (fitted, "fitted", "--")):
-            if source is None:
-                continue
-            f = np.asarray(source.evaluate(wi, wo))[:, :3]
-            v = f @ lum[: f.shape[1]] if f.shape[1] > 1 else f[:, 0]
-            ax1.plot(t, np.cbrt(np.maximum(v, 0)), style, label=label)
-        ax1.set_thetamin(-90)
-        ax1.set_thetamax(90)
-        ax1.set_theta_zero_location("N")
-        ax1.set_title(f"plane of incidence, θi = {theta_i_deg:.0f}° (∛f)", fontsize=8)
-        ax1.legend(fontsize=7, loc="lower left")
-        source = original if original is not None else fitted
-        if source is not None:
-            th = (np.arange(90) / 90.0) ** 2 * np.pi / 2
-            td = np.arange(90) / 90.0 * np.pi / 2
-            TH, TD = np.meshgrid(th, td, indexing="ij")
-            a, b = from_half_diff(TH.ravel(), 0.0, TD.ravel(), np.full(TH.size, np.pi / 2))
-            f = np.asarray(source.evaluate(a, b))[:, :3]
-            img = (f @ lum[: f.shape[1]] if f.shape[1] > 1 else f[:, 0]).reshape(90, 90)
-            ax2.imshow(np.log10(np.maximum(img, 1e-4)).T, origin="lower", aspect="auto", extent=(0, 90, 0, 90))
-            ax2.set_xlabel("θh bin (MERL spacing)", fontsize=8)
-            ax2.set_ylabel("θd (°)", fontsize=8)
-            ax2.set_title("log10 f, φd = 90°", fontsize=8)
-        theta = np.radians(np.linspace(0, 85, 18))
-        views = spherical_to_cartesian(theta, 0.0)
-        for src, label, style in ((original, "original", "-"), (fitted, "fitted", "--")):
-            if isinstance(src, AnalyticMaterial) and src.lobes:
-                ax3.plot(np.degrees(theta), directional_albedo(src, views, samples_log2=9) @ lum[: src.n_channels]
-                         if src.n_channels >= 3 else directional_albedo(src, views, samples_log2=9)[:, 0], style, label=label)
-        ax3.axhline(1.0, color="grey", lw=0.8, ls=":")
-        ax3.set_xlabel("θo (°)", fontsize=8)
-        ax3.set_title("directional albedo", fontsize=8)
-        self.canvas.draw_idle()
+    def _request(self) -> None:
+        if self._last is None:
+            return
+        ratio = self.devicePixelRatioF()
+        size = (max(200, int(self.image.width() * ratio)), max(120, int(self.image.height() * ratio)))
+        self.status.setText("updating…")
+        self._job.request((*self._last, size))
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        self._request()
+
+    def _show(self, rgba: np.ndarray) -> None:
+        from PySide6.QtGui import QImage, QPixmap
+
+        h, w = rgba.shape[:2]
+        img = QImage(rgba.tobytes(), w, h, 4 * w, QImage.Format_RGBA8888).copy()
+        img.setDevicePixelRatio(self.devicePixelRatioF())
+        self.image.setPixmap(QPixmap.fromImage(img))
+        self.status.setText("")
+
+    def shutdown(self) -> None:
+        self._job.shutdown()
+
+
+def draw_plots(request) -> np.ndarray:
+    """The three plots as an RGBA image of the requested pixel size (runs in a worker)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from brdflab.geometry.halfdiff import from_half_diff
+    from brdflab.geometry.vec import spherical_to_cartesian
+    from brdflab.material.albedo import directional_albedo
+
+    original, fitted, theta_i_deg, (width, height) = request
+    dpi = 100
+    figure = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, layout="constrained")
+    canvas = FigureCanvasAgg(figure)
+    ax1 = figure.add_subplot(1, 3, 1, projection="polar")
+    ax2 = figure.add_subplot(1, 3, 2)
+    ax3 = figure.add_subplot(1, 3, 3)
+    t = np.radians(np.linspace(-89.5, 89.5, 361))
+    wo = spherical_to_cartesian(np.abs(t), np.where(t < 0, np.pi, 0.0))
+    wi = np.broadcast_to(spherical_to_cartesian(np.radians(theta_i_deg), np.pi), wo.shape)
+    lum = np.array([0.2126, 0.7152, 0.0722])
+
+    def luminance(f: np.ndarray) -> np.ndarray:
+        f = np.asarray(f)[:, :3]
+        return f @ lum[: f.shape[1]] / lum[: f.shape[1]].sum() if f.shape[1] > 1 else f[:, 0]
+
+    for source, label, style in ((original, "original", "-"), (fitted, "fitted", "--")):
+        if source is None:
+            continue
+        ax1.plot(t, np.cbrt(np.maximum(luminance(source.evaluate(wi, wo)), 0)), style, label=label)
+    ax1.set_thetamin(-90)
+    ax1.set_thetamax(90)
+    ax1.set_theta_zero_location("N")
+    ax1.tick_params(labelsize=7)
+    ax1.set_title(f"plane of incidence, θi = {theta_i_deg:.0f}° (∛f)", fontsize=8)
+    if ax1.lines:
+        figure.legend(handles=ax1.lines, fontsize=7, loc="outside lower left", ncols=2)
+    source = original if original is not None else fitted
+    if source is not None:
+        th = ((np.arange(90) + 0.5) / 90.0) ** 2 * np.pi / 2
+        td = (np.arange(90) + 0.5) / 90.0 * np.pi / 2
+        TH, TD = np.meshgrid(th, td, indexing="ij")
+        a, b = from_half_diff(TH.ravel(), 0.0, TD.ravel(), np.full(TH.size, np.pi / 2))
+        img = luminance(source.evaluate(a, b)).reshape(90, 90)
+        shown = ax2.imshow(np.log10(np.maximum(img, 1e-4)).T, origin="lower", aspect="auto", extent=(0, 90, 0, 90))
+        figure.colorbar(shown, ax=ax2, label="log10 f (1/sr)").ax.tick_params(labelsize=7)
+        ax2.set_xlabel("θh bin (MERL spacing)", fontsize=8)
+        ax2.set_ylabel("θd (°)", fontsize=8)
+        ax2.set_title("log10 f, φd = 90°", fontsize=8)
+        ax2.tick_params(labelsize=7)
+    theta = np.radians(np.linspace(0, 85, 18))
+    views = spherical_to_cartesian(theta, 0.0)
+    for src, label, style in ((original, "original", "-"), (fitted, "fitted", "--")):
+        if src is not None and (not isinstance(src, AnalyticMaterial) or src.lobes):
+            albedo = directional_albedo(src, views, samples_log2=9) if isinstance(src, AnalyticMaterial) \
+                else _sampled_albedo(src, views)
+            ax3.plot(np.degrees(theta), luminance(albedo), style, label=label)
+    ax3.axhline(1.0, color="grey", lw=0.8, ls=":")
+    ax3.set_xlabel("θo (°)", fontsize=8)
+    ax3.set_ylabel("albedo (luminance)", fontsize=8)
+    ax3.set_title("directional albedo", fontsize=8)
+    ax3.tick_params(labelsize=7)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba()).copy()
+
+
+def _sampled_albedo(source, views: np.ndarray, n: int = 4096) -> np.ndarray:
+    """∫ f cos θi dωi of any source by cosine-weighted quasi-random directions (measured data)."""
+    from scipy.stats import qmc
+
+    u = qmc.Sobol(2, scramble=True, seed=7).random(n)
+    r, phi = np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
+    wi = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(0.0, 1 - r * r))], axis=1)
+    out = []
+    for v in views:
+        f = np.asarray(source.evaluate(wi, np.broadcast_to(v, wi.shape)))
+        out.append(np.pi * np.nanmean(f, axis=0))
+    return np.array(out)
 
 
 class XmlHighlighter(QSyntaxHighlighter):

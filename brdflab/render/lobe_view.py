@@ -64,6 +64,13 @@ class LobeViewer:
         self._line_vbo = self.ctx.buffer(reserve=12 * 6 * 4)
         self._line_vao = self.ctx.vertex_array(self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_color")])
 
+    def adopt(self, old: "LobeViewer") -> None:
+        """Take over what another viewer shows (its GL context is gone): settings, camera
+        and layers, rebuilt on this viewer's context."""
+        self.settings, self.camera = old.settings, old.camera
+        for index, layer in enumerate(old._layers):
+            self._set_layer(index, None if layer is None else layer.source, release_old=False)
+
     # --- sources --------------------------------------------------------------------------
     def set_original(self, source) -> None:
         self._set_layer(0, source)
@@ -71,9 +78,9 @@ class LobeViewer:
     def set_fitted(self, source) -> None:
         self._set_layer(1, source)
 
-    def _set_layer(self, index: int, source) -> None:
+    def _set_layer(self, index: int, source, release_old: bool = True) -> None:
         old = self._layers[index]
-        if old is not None:
+        if old is not None and release_old:
             for vao in old.vaos.values():
                 vao.release()
             if old.texture is not None:
@@ -82,6 +89,9 @@ class LobeViewer:
             self._layers[index] = None
             return
         analytic = isinstance(source, AnalyticMaterial)
+        if analytic and not source.lobes:  # an empty material is valid: nothing to draw
+            self._layers[index] = None
+            return
         models = models_of(source) if analytic else ("Lambertian",)
         self._layers[index] = _Layer(source, self._program(models, not analytic))
         if analytic:

@@ -75,6 +75,19 @@ class ObjectRenderer:
         self.clamped_pixels = 0
         self._empty_vao = ctx.vertex_array(self._program(("Lambertian",), "point", True), [])
 
+    def adopt(self, old: "ObjectRenderer") -> None:
+        """Take over another renderer's scene (its GL context is gone), rebuilt on this one's."""
+        self.camera, self.model_rotation = old.camera, old.model_rotation
+        self.sh_shadows, self.sh_variant = old.sh_shadows, old.sh_variant
+        self.sh_order, self.sh_window = old.sh_order, old.sh_window
+        if old.mesh is not None:
+            self.set_mesh(old.mesh)
+        if old.environment is not None:
+            self.set_environment(old.environment)
+        source = old.source if old.source is not None else old.material
+        if source is not None:
+            self.set_source(source)
+
     # --- state ----------------------------------------------------------------------------
     def set_material(self, material: AnalyticMaterial) -> None:
         if not material.lobes:
