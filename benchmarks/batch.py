@@ -8,7 +8,8 @@ directly (load, samples, fit); the batch route is `run_batch` on a fresh LocalCl
 CLI's), timed with and without the cluster's start-up (processes spawned, brdflab imported
 in them); writing the results table, the XML files and the charts is included. The
 errors of both routes must agree (an independent check that the batch fits the same thing).
-Also measured: Dask's own per-task overhead (no-op tasks on the same cluster), which the
+For the conditions of the run, the same fits on a plain process pool of the same size (no
+Dask) give the parallelism the machine offered at that moment. Also measured: Dask's own per-task overhead (no-op tasks on the same cluster), which the
 plan in docs/batch.md uses.
 """
 
@@ -46,6 +47,26 @@ def serial(slices: list[Path]) -> tuple[float, dict]:
                          FitOptions(metric="L2"))
             errors[(path.stem, ",".join(lobes))] = result.error
     return time.perf_counter() - t0, errors
+
+
+def fit_one(job: tuple[Path, tuple[str, ...]]) -> float:
+    path, lobes = job
+    source = load_source(path)
+    return fit(material_from_lobes(list(lobes), "Linear", source.n_channels), samples_of(source),
+               FitOptions(metric="L2")).error
+
+
+def plain_pool(slices: list[Path], workers: int) -> float:
+    """The same fits on a multiprocessing pool (spawned, warmed up): the machine's ceiling now."""
+    from multiprocessing import get_context
+
+    jobs = [(p, lobes) for p in slices for lobes in LOBE_SETS]
+    os.environ.update({"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"})
+    with get_context("spawn").Pool(workers) as pool:
+        pool.map(fit_one, jobs[:workers], chunksize=1)
+        t0 = time.perf_counter()
+        list(pool.imap_unordered(fit_one, jobs, chunksize=1))
+        return time.perf_counter() - t0
 
 
 def noop(i: int) -> int:
@@ -91,6 +112,8 @@ def main() -> None:
     overhead_s = dask_overhead(client)
     client.close()
     cluster.close()
+    pool_s = plain_pool(slices, args.workers)
+    print(f"plain process pool, {args.workers} processes: {pool_s:.1f} s ({serial_s / pool_s:.2f}× serial)", flush=True)
     load_after = os.getloadavg()
 
     batch_errors = {(r.material, r.lobes): r.error for r in table.itertuples()}
@@ -100,6 +123,7 @@ def main() -> None:
         "tasks": tasks, "workers": args.workers, "cpus": os.cpu_count(), "python": platform.python_version(),
         "serial_s": serial_s, "batch_s": batch_s, "cluster_startup_s": startup_s,
         "speedup": serial_s / batch_s, "speedup_with_startup": serial_s / (batch_s + startup_s),
+        "plain_pool_s": pool_s, "plain_pool_speedup": serial_s / pool_s,
         "failed": summary.failed, "max_relative_error_difference": rel,
         "task_seconds_mean": float(task_s.mean()), "task_seconds_median": float(np.median(task_s)),
         "task_seconds_by_lobes": table.groupby("lobes")["seconds"].mean().to_dict(),
