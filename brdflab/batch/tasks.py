@@ -15,8 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
+from brdflab.sources.measured import READERS
 
-FIT_EXTENSIONS = (".binary", ".slice", ".txt", ".csv", ".carpaint", ".bin", ".xml")
+FIT_EXTENSIONS = (*READERS, ".xml")  # every measured format the lab reads, and XML materials
 
 
 @dataclass(frozen=True)
