@@ -153,7 +153,8 @@ def run_batch(settings: BatchSettings, stream=None) -> BatchSummary:
     validate(settings)
     t0 = time.perf_counter()
     options = options_dict(settings.metric, settings.max_iterations)
-    tasks = make_tasks(discover_sources(settings.sources), settings.lobe_sets, settings.combination, options)
+    lobe_sets = list(dict.fromkeys(settings.lobe_sets))  # a set named twice is one task per source
+    tasks = make_tasks(discover_sources(settings.sources), lobe_sets, settings.combination, options)
     settings.out.mkdir(parents=True, exist_ok=True)
     recorder = Recorder(settings.out, tasks, lambda text: print(f"brdflab batch: warning: {text}", file=stream))
     pending = [t for t in tasks if not recorder.table.is_done(t.key, t.sha256)]
@@ -198,6 +199,7 @@ def _run(pending: list[FitTask], settings: BatchSettings, recorder: Recorder, su
             if recorder.due() or (arrivals.is_empty() and recorder.unsaved):
                 recorder.flush()
             elif not outcomes:
+                progress.update(0, 0)  # the clock moves on while a long fit runs
                 time.sleep(0.02)
         progress.close()
     finally:
