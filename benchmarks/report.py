@@ -144,7 +144,33 @@ each vertex's frame once, on the CPU) and fixed-view mode (each vertex's BRDF ve
 to world once; a lighting change is then one dot product per vertex) remove that rotation;
 their frame times include the per-vertex preparation when it is not cached.
 """
-    (DOCS / "benchmarks.md").write_text(text)
+    (DOCS / "benchmarks.md").write_text(text + batch_section())
+
+
+def batch_section() -> str:
+    """Batch fitting on Dask (benchmarks/batch.py), when its numbers exist."""
+    path = DOCS / "bench" / "batch.json"
+    if not path.exists():
+        return ""
+    b = json.loads(path.read_text())
+    return f"""
+## Batch fitting (Dask)
+
+`python benchmarks/batch.py --json docs/bench/batch.json`: {b["tasks"]} fits (31 MERL slices × 4
+lobe sets), one after another in one process against `brdflab batch`'s LocalCluster of
+{b["workers"]} workers, in one run. Load average {b["load_average_before"][0]:.1f} → {b["load_average_after"][0]:.1f} (a shared machine).
+
+| route | seconds | against serial |
+|---|---|---|
+| one process | {b["serial_s"]:.1f} | 1.00× |
+| plain process pool ({b["workers"]}) | {b["plain_pool_s"]:.1f} | {b["plain_pool_speedup"]:.2f}× |
+| batch, cluster running | {b["batch_s"]:.1f} | {b["speedup"]:.2f}× |
+| batch, cluster start-up included | {b["batch_s"] + b["cluster_startup_s"]:.1f} | {b["speedup_with_startup"]:.2f}× |
+
+Errors equal to the serial ones (max relative difference {b["max_relative_error_difference"]:.1e}); Dask's
+overhead {1e3 * b["dask_overhead_per_task_s"]:.1f} ms per task. Conditions, earlier runs and the
+plan for a 64-core cluster: `docs/batch.md`.
+"""
 
 
 if __name__ == "__main__":

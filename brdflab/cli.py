@@ -1,4 +1,4 @@
-"""The command line: `brdflab [gui|models|info|eval|fit|render|simulate|bench] ...`.
+"""The command line: `brdflab [gui|models|info|eval|fit|batch|render|simulate|bench] ...`.
 
 Every command prints one JSON object as the last line of stdout with --json. Bad
 input raises BRDFLabError, which becomes a one-line message on stderr and exit
@@ -144,6 +144,22 @@ def cmd_fit(args: argparse.Namespace) -> int:
     human = (f"{result.metric} error {result.error:.6g} after {result.iterations} iterations "
              f"({result.seconds:.2f} s, {result.status})")
     _emit(args, payload, human)
+    return 0
+
+
+def cmd_batch(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from brdflab.batch.runner import BatchSettings, run_batch
+
+    lobe_sets = [tuple(s.strip() for s in spec.split(",") if s.strip()) for spec in args.lobes]
+    settings = BatchSettings(sources=[Path(s) for s in args.sources], lobe_sets=lobe_sets, out=Path(args.out),
+                             metric=args.metric, combination={"linear": "Linear", "fixed": "Fixed"}[args.combination],
+                             max_iterations=args.max_iterations, scheduler=args.scheduler, workers=args.workers)
+    summary = run_batch(settings)
+    human = (f"{summary.tasks} tasks: {summary.ran} fitted ({summary.failed} failed), {summary.skipped} already done, "
+             f"{summary.seconds:.1f} s; wrote {args.out}/{{{','.join(summary.files)}}} and {args.out}/fits/")
+    _emit(args, {"out": args.out, **asdict(summary)}, human)
     return 0
 
 
@@ -334,6 +350,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="write the source's XML with the new <Fitting> here")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser("batch", help="fit lobe sets to many sources on a Dask cluster (resumable)")
+    p.add_argument("sources", nargs="+", help="measured data or XML files, or folders of them")
+    p.add_argument("--lobes", action="append", required=True,
+                   help="a lobe set, e.g. Lambertian,BlinnPhong; repeat for several")
+    p.add_argument("--metric", default="L2", help="L2, cosL2 or Ngan")
+    p.add_argument("--combination", choices=["linear", "fixed"], default="linear")
+    p.add_argument("--max-iterations", type=int, default=200)
+    p.add_argument("--out", required=True, help="folder for the results table, the charts and fits/*.xml")
+    p.add_argument("--scheduler", help="address of an existing Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument("--workers", type=int, default=None, help="worker processes of the local cluster (default: one per core)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser("render", help="offscreen render of a material")
     p.add_argument("material", help="XML material or measured data file")

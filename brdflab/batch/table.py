@@ -1,0 +1,68 @@
+"""The results table of a batch: one row per (source, lobe set, options), kept as CSV and
+Parquet in the output folder and rewritten atomically whenever results arrive."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import pandas as pd
+
+from brdflab.errors import BRDFLabError
+from brdflab.io.xmlio import atomic_write
+
+COLUMNS = ["source", "material", "lobes", "combination", "metric", "error", "parameters", "seconds", "iterations",
+           "evaluations", "status", "message", "worker", "pid", "sha256", "options", "key"]
+TEXT_COLUMNS = ["source", "material", "lobes", "combination", "metric", "parameters", "status", "message", "worker",
+                "sha256", "options", "key"]
+CSV_NAME, PARQUET_NAME = "results.csv", "results.parquet"
+
+
+class ResultsTable:
+    """Rows by pair key; a new row for a key replaces the old one."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.rows: dict[str, dict] = {}
+
+    @classmethod
+    def load(cls, folder: Path) -> "ResultsTable":
+        """The table a previous run left in `folder` (the CSV is the record), or an empty one."""
+        table = cls(folder)
+        path = folder / CSV_NAME
+        if path.exists():
+            try:
+                frame = pd.read_csv(path, dtype={c: str for c in TEXT_COLUMNS}, keep_default_na=False)
+                missing = set(COLUMNS) - set(frame.columns)
+                if missing:
+                    raise ValueError(f"missing columns {', '.join(sorted(missing))}")
+                frame["error"] = pd.to_numeric(frame["error"], errors="coerce")
+            except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as e:
+                raise BRDFLabError(f"not a batch results table: {e}", path) from None
+            for row in frame[COLUMNS].to_dict("records"):
+                table.rows[row["key"]] = row
+        return table
+
+    def is_done(self, key: str, sha256: str) -> bool:
+        """A pair with a result for the same file content (failed rows are retried)."""
+        row = self.rows.get(key)
+        return row is not None and row["status"] != "failed" and row["sha256"] == sha256 and sha256 != ""
+
+    def update(self, rows: list[dict]) -> None:
+        for row in rows:
+            self.rows[row["key"]] = {c: row.get(c) for c in COLUMNS}
+
+    def frame(self) -> pd.DataFrame:
+        frame = pd.DataFrame(list(self.rows.values()), columns=COLUMNS)
+        return frame.sort_values(["material", "source", "lobes", "options"], kind="stable").reset_index(drop=True)
+
+    def save(self) -> None:
+        """Parquet first, then the CSV (the record a rerun reads): each through a temp file and a rename."""
+        frame = self.frame()
+        parquet = io.BytesIO()
+        frame.to_parquet(parquet, index=False)
+        try:
+            atomic_write(self.folder / PARQUET_NAME, parquet.getvalue())
+            atomic_write(self.folder / CSV_NAME, frame.to_csv(index=False).encode())
+        except OSError as e:
+            raise BRDFLabError(f"cannot write the results table: {e.strerror}", self.folder) from None

@@ -1,0 +1,151 @@
+"""One batch task: fit one lobe set to one source. Runs in a worker process.
+
+A task never raises for a bad source or a failed fit: it returns a row whose status is
+"failed" and whose message is the one-line error, so the batch goes on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from brdflab.errors import BRDFLabError
+from brdflab.sources.measured import READERS
+
+FIT_EXTENSIONS = (*READERS, ".xml")  # every measured format the lab reads, and XML materials
+
+
+@dataclass(frozen=True)
+class FitTask:
+    """The inputs of one fit: a source file (and its sha256), a lobe set and the fit options."""
+
+    source: str  # absolute path
+    sha256: str
+    lobes: tuple[str, ...]
+    combination: str  # Linear | Fixed
+    options: dict  # every FitOptions field
+
+    @property
+    def lobe_label(self) -> str:
+        return ",".join(self.lobes)
+
+    @property
+    def options_json(self) -> str:
+        return json.dumps({"combination": self.combination, **self.options}, sort_keys=True)
+
+    @property
+    def key(self) -> str:
+        """The pair's identity (source, lobes, options), independent of the file's content."""
+        text = json.dumps([self.source, self.lobe_label, self.options_json])
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+@dataclass
+class TaskOutcome:
+    """A finished task: its table row and, when it succeeded, the fitted material."""
+
+    row: dict
+    fitting: object | None = None  # the <Fitting> of the fit (brdflab.io.xmlio.Fitting)
+    source_type: str | None = None  # the measured type of a data file; None for XML sources
+
+
+def file_sha256(path: Path) -> str:
+    """The file's sha256, or '' when it cannot be read (the task then reports why)."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
+        return ""
+    return h.hexdigest()
+
+
+def options_dict(metric: str, max_iterations: int) -> dict:
+    """Every field of the fitter's options (so a change of its defaults counts as new inputs)."""
+    from brdflab.fitting.lm import FitOptions
+
+    options = FitOptions(metric=metric, max_iterations=max_iterations)
+    options.validate()
+    return {k: (str(v) if isinstance(v, float) and v == float("inf") else v)
+            for k, v in dataclasses.asdict(options).items()}
+
+
+def fit_options(options: dict):
+    from brdflab.fitting.lm import FitOptions
+
+    return FitOptions(**{k: (float(v) if v == "inf" else v) for k, v in options.items()})
+
+
+def base_row(task: FitTask) -> dict:
+    return {"key": task.key, "source": task.source, "material": Path(task.source).stem, "sha256": task.sha256,
+            "lobes": task.lobe_label, "combination": task.combination, "metric": task.options["metric"],
+            "options": task.options_json}
+
+
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except (ImportError, ValueError):
+        return "local"
+
+
+def one_line(e: BaseException) -> str:
+    """A one-line message: BRDFLabError's own text, else the exception type and text."""
+    text = str(e) if isinstance(e, BRDFLabError) else f"{type(e).__name__}: {e}"
+    return " ".join(text.split())[:500]
+
+
+def run_task(task: FitTask) -> TaskOutcome:
+    """Load the source, fit the lobe set on all its samples, and return the row."""
+    from brdflab.fitting.lm import fit, material_from_lobes
+    from brdflab.fitting.samples import samples_of
+    from brdflab.fitting.stored import fitting_of
+    from brdflab.sources.files import is_xml, load_source
+
+    t0 = time.perf_counter()
+    row = {**base_row(task), "worker": _worker_name(), "pid": os.getpid()}
+    path = Path(task.source)
+    try:
+        if file_sha256(path) != task.sha256:
+            raise BRDFLabError("the file changed or differs on this worker (sha256 mismatch)", path)
+        source = load_source(path)
+        start = material_from_lobes(list(task.lobes), task.combination, source.n_channels)
+        result = fit(start, samples_of(source), fit_options(task.options))
+    except Exception as e:  # a bad file or a failed fit is a row, not the end of the batch
+        row.update(error=float("nan"), parameters="", seconds=time.perf_counter() - t0, iterations=0,
+                   evaluations=0, status="failed", message=one_line(e))
+        return TaskOutcome(row)
+    row.update(error=float(result.error), parameters=json.dumps(result.material.describe()["lobes"]),
+               seconds=float(result.seconds), iterations=int(result.iterations),
+               evaluations=int(result.evaluations), status=result.status, message=result.message)
+    source_type = None if is_xml(path) else getattr(source, "source_type", None)
+    return TaskOutcome(row, fitting_of(result), source_type)
+
+
+def discover_sources(paths: list[Path]) -> list[Path]:
+    """Files as given, and every fit-able file (by extension) directly inside a folder, sorted."""
+    found: list[Path] = []
+    for p in paths:
+        if p.is_dir():
+            found.extend(sorted(f for f in p.iterdir() if f.is_file() and f.suffix.lower() in FIT_EXTENSIONS
+                                and not f.name.startswith(".")))
+        elif p.exists():
+            found.append(p)
+        else:
+            raise BRDFLabError("no such file or folder", p)
+    unique = list(dict.fromkeys(f.resolve() for f in found))
+    if not unique:
+        raise BRDFLabError("no measured, simulated or XML files found in " + ", ".join(map(str, paths)))
+    return unique
+
+
+def make_tasks(sources: list[Path], lobe_sets: list[tuple[str, ...]], combination: str, options: dict) -> list[FitTask]:
+    return [FitTask(str(s), file_sha256(s), lobes, combination, options) for s in sources for lobes in lobe_sets]

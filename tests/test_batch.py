@@ -1,0 +1,177 @@
+"""`brdflab batch`: fits on Dask worker processes equal the fits run alone, a rerun skips
+done work, a killed worker loses no result, and a bad file becomes a failed row."""
+
+import json
+import logging
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from brdflab.batch.runner import BatchSettings, run_batch
+from brdflab.cli import main
+from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
+from brdflab.fitting.metrics import metric_error
+from brdflab.fitting.samples import samples_of
+from brdflab.io.xmlio import load
+from brdflab.sources.files import load_source
+from brdflab.sources.measured import read_slice
+from conftest import DATA, ROOT, needs_shared
+
+distributed = pytest.importorskip("distributed")
+SLICES = DATA / "merl_slices"
+pytestmark = needs_shared("merl_slices")
+
+
+def copy_slices(folder: Path, names) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        shutil.copy(SLICES / f"{name}.slice", folder / f"{name}.slice")
+    return folder
+
+
+def batch_cli(cwd: Path, *argv) -> subprocess.CompletedProcess:
+    """The command as a user runs it: another folder, the worktree's code."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run([sys.executable, "-m", "brdflab", "batch", *argv, "--json"], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+def summary_of(proc) -> dict:
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """One LocalCluster of two single-threaded worker processes, shared by the tests that
+    use an existing cluster (`--scheduler`)."""
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                       silence_logs=logging.CRITICAL)
+    client = distributed.Client(cluster)
+    yield cluster, client
+    client.close()
+    cluster.close()
+
+
+def test_local_cluster_batch_equals_fits_alone_and_bad_file_is_a_failed_row(tmp_path):
+    data = copy_slices(tmp_path / "data", ["pvc", "nickel"])
+    (data / "broken.slice").write_bytes(b"\0" * 5000)
+    (data / "notes.md").write_text("not a source")  # not a data file: ignored
+    proc = batch_cli(tmp_path, "data", "--lobes", "Lambertian,BlinnPhong", "--lobes", "Lambertian,Ward",
+                     "--metric", "L2", "--out", "results", "--workers", "2")
+    summary = summary_of(proc)
+    assert summary["tasks"] == 6 and summary["ran"] == 6 and summary["failed"] == 2 and summary["workers"] == 2
+    assert "dashboard http" in proc.stderr
+
+    table = pd.read_csv(tmp_path / "results" / "results.csv")
+    assert len(table) == 6
+    bad = table[table["material"] == "broken"]
+    assert list(bad["status"]) == ["failed", "failed"]
+    assert all(m.endswith("broken.slice: truncated: 5000 bytes, a slice is 97200") for m in bad["message"])
+    ok = table[table["status"] != "failed"]
+    assert ok["worker"].str.startswith("tcp://").all() and ok["pid"].nunique() >= 1
+    for row in ok.itertuples():
+        alone = fit(material_from_lobes(row.lobes.split(","), "Linear", 3), samples_of(read_slice(data / f"{row.material}.slice")),
+                    FitOptions(metric="L2"))
+        assert row.error == pytest.approx(alone.error, rel=1e-6), row
+    parquet = pd.read_parquet(tmp_path / "results" / "results.parquet")
+    assert sorted(parquet["error"].dropna()) == pytest.approx(sorted(ok["error"]))
+
+    # the XML of a source holds every fit of it, and a stored fit reproduces its error on the slice
+    doc = load(tmp_path / "results" / "fits" / "pvc.xml")
+    assert [f.statistics["batch_key"] for f in doc.fittings] == list(table[table["material"] == "pvc"]["key"])
+    stored = load_source(tmp_path / "results" / "fits" / "pvc.xml", fitting=1)
+    samples = samples_of(load_source(tmp_path / "results" / "fits" / "pvc.xml"))
+    row = ok[(ok["material"] == "pvc") & (ok["lobes"] == "Lambertian,Ward")].iloc[0]
+    assert metric_error(stored, samples, "L2") == pytest.approx(row.error, rel=1e-6)
+    assert not (tmp_path / "results" / "fits" / "broken.xml").exists()
+    for chart in ("error_per_material.png", "error_vs_time.png"):
+        assert (tmp_path / "results" / chart).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_rerun_skips_done_work_and_redoes_changed_files(tmp_path, cluster):
+    _, client = cluster
+    address = client.scheduler.address
+    data = copy_slices(tmp_path / "data", ["pvc", "brass"])
+    args = ("data", "--lobes", "Lambertian,BlinnPhong", "--out", "out", "--scheduler", address)
+    first = summary_of(batch_cli(tmp_path, *args))
+    assert (first["ran"], first["skipped"], first["failed"]) == (2, 0, 0)
+    csv_before = (tmp_path / "out" / "results.csv").read_bytes()
+
+    again = summary_of(batch_cli(tmp_path, *args))
+    assert (again["ran"], again["skipped"]) == (0, 2)
+    assert (tmp_path / "out" / "results.csv").read_bytes() == csv_before
+
+    shutil.copy(SLICES / "nickel.slice", data / "brass.slice")  # new content under the same name
+    third = summary_of(batch_cli(tmp_path, *args, "--lobes", "Lambertian,Ward"))
+    assert (third["ran"], third["skipped"]) == (3, 1)  # brass twice (changed, new set), pvc with the new set
+    table = pd.read_csv(tmp_path / "out" / "results.csv")
+    assert len(table) == 4
+    brass = table[table["material"] == "brass"]
+    nickel_alone = fit(material_from_lobes(["Lambertian", "BlinnPhong"], "Linear", 3),
+                       samples_of(read_slice(SLICES / "nickel.slice")), FitOptions())
+    assert brass[brass["lobes"] == "Lambertian,BlinnPhong"]["error"].iloc[0] == pytest.approx(nickel_alone.error, rel=1e-6)
+    assert len(load(tmp_path / "out" / "fits" / "brass.xml").fittings) == 2  # replaced, not appended
+
+
+def test_killed_worker_loses_no_result(tmp_path, cluster):
+    _, client = cluster
+    data = copy_slices(tmp_path / "data", ["pvc", "brass", "nickel"])
+    killed: dict = {}
+
+    def kill_a_busy_worker():
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not killed:
+            busy = {w: keys for w, keys in client.processing().items() if keys}
+            if busy:
+                worker, keys = next(iter(busy.items()))
+                time.sleep(0.2)  # well inside a fit of this lobe set
+                running = set(client.processing().get(worker, ())) & set(keys)
+                if running:
+                    pid = client.run(os.getpid, workers=[worker])[worker]
+                    os.kill(pid, signal.SIGKILL)
+                    killed.update(pid=pid, keys=running)
+            time.sleep(0.05)
+
+    killer = threading.Thread(target=kill_a_busy_worker)
+    killer.start()
+    summary = run_batch(BatchSettings([data], [("Lambertian", "LafortuneIso"), ("Lambertian", "BlinnPhong")],
+                                      tmp_path / "out", scheduler=client.scheduler.address))
+    killer.join()
+    assert killed, "no worker was busy long enough to be killed"
+    assert (summary.ran, summary.failed) == (6, 0)
+    table = pd.read_csv(tmp_path / "out" / "results.csv")
+    assert len(table) == 6 and (table["status"] != "failed").all()
+    rerun = table[[f"fit-{k}-{s[:8]}" in killed["keys"] for k, s in zip(table["key"], table["sha256"])]]
+    assert len(rerun) >= 1 and (rerun["pid"] != killed["pid"]).all()  # the lost task ran again elsewhere
+    assert all(len(load(tmp_path / "out" / "fits" / f"{m}.xml").fittings) == 2 for m in ("pvc", "brass", "nickel"))
+    assert not list((tmp_path / "out").rglob("*.tmp"))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--lobes", "Lambertian,NoSuchLobe"], "NoSuchLobe"),
+    (["--lobes", "Lambertian", "--metric", "L7"], "unknown metric"),
+    (["--lobes", "Lambertian", "--workers", "0"], "--workers must be at least 1"),
+])
+def test_bad_options_fail_in_one_line_before_any_cluster(tmp_path, capsys, argv, message):
+    copy_slices(tmp_path / "data", ["pvc"])
+    code = main(["batch", str(tmp_path / "data"), *argv, "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+
+
+def test_missing_source_and_out_file_are_one_line_errors(tmp_path, capsys):
+    assert main(["batch", str(tmp_path / "nothing"), "--lobes", "Lambertian", "--out", str(tmp_path / "o")]) == 2
+    assert "nothing: no such file or folder" in capsys.readouterr().err
+    (tmp_path / "o").write_text("a file")
+    copy_slices(tmp_path / "data", ["pvc"])
+    assert main(["batch", str(tmp_path / "data"), "--lobes", "Lambertian", "--out", str(tmp_path / "o")]) == 2
+    assert "--out must be a folder" in capsys.readouterr().err
