@@ -101,6 +101,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
+    import signal
     import threading
 
     from brdflab.fitting.lm import FitOptions, fit
@@ -109,6 +110,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from brdflab.sources.files import load_source
     from brdflab.io.xmlio import save
 
+    if not args.time_limit > 0:
+        raise BRDFLabError(f"--time-limit {args.time_limit:g}: must be a positive number of seconds")
     source_path = Path(args.source)
     source = load_source(source_path, fitting=args.fitting)
     lobes = [s.strip() for s in args.lobes.split(",") if s.strip()] if args.lobes else None
@@ -116,8 +119,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
     start = initial_material(lobes, combination, source.n_channels,
                              Path(args.init) if args.init else None, args.init_fitting)
     samples = samples_of(source, args.samples, size=args.size, density=args.density)
+    score_on = samples_of(source) if args.samples != "all" else None
+    restarts = args.restarts if args.restarts is not None else not args.init  # a stored fit is continued
     options = FitOptions(metric=args.metric, compression=args.compression, max_iterations=args.max_iterations,
-                         time_limit=args.time_limit, restarts=args.restarts)
+                         time_limit=args.time_limit, restarts=restarts)
     if args.init:
         options.coarse_size = 0  # continuing a stored fit: it is already near the optimum of all samples
     t0 = time.perf_counter()
@@ -130,9 +135,17 @@ def cmd_fit(args: argparse.Namespace) -> int:
                   end="", file=sys.stderr, flush=True)
 
     cancel = threading.Event()
+
+    def interrupted(signum, frame):  # Ctrl-C: stop at the next sample chunk, keep the best so far
+        cancel.set()
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C stops at once
+
+    previous = signal.signal(signal.SIGINT, interrupted) if threading.current_thread() is threading.main_thread() else None
     try:
-        result = fit(start, samples, options, progress=progress, cancel=cancel)
+        result = fit(start, samples, options, progress=progress, cancel=cancel, score_on=score_on)
     finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
         if show:
             print(file=sys.stderr)
     payload = {**result.as_dict(), "samples": samples.size, "source": str(source_path)}
@@ -141,9 +154,17 @@ def cmd_fit(args: argparse.Namespace) -> int:
         append_fitting(doc, result)
         save(doc, Path(args.out))
         payload["out"] = args.out
-    human = (f"{result.metric} error {result.error:.6g} after {result.iterations} iterations "
+    human = (f"{result.metric} error {result.error:.6g} on {result.scored_on} after {result.iterations} iterations "
              f"({result.seconds:.2f} s, {result.status})")
+    for w in result.warnings:
+        print(f"brdflab fit: warning: {w}", file=sys.stderr)
+    if result.status == "no-better-than-zero":
+        print(f"brdflab fit: warning: {result.message}", file=sys.stderr)
     _emit(args, payload, human)
+    if result.status == "cancelled":
+        saved = f"; the best parameters so far are saved in {args.out}" if args.out else ""
+        print(f"brdflab fit: interrupted{saved}", file=sys.stderr)
+        return 130
     return 0
 
 
@@ -332,11 +353,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_eval)
 
-    p = sub.add_parser("fit", help="fit analytic lobes to a source with Levenberg–Marquardt")
+    from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
+
+    p = sub.add_parser("fit", help="fit analytic lobes to a source with Levenberg–Marquardt",
+                       description="Fit analytic lobes to a source with Levenberg–Marquardt. Every source "
+                       "(table, slice, raw samples, analytic grid) is fitted and scored over the same "
+                       "solid-angle measure of (ωi, ωo) pairs. " + DEFAULTS_WHY)
     p.add_argument("source", help="measured data file, XML material, or XML with fits (see --fitting)")
     p.add_argument("--lobes", help="comma-separated lobe models, e.g. Lambertian,LafortuneIso")
     p.add_argument("--combination", choices=["linear", "fixed"], default="linear")
-    p.add_argument("--metric", default="L2", help="L2, cosL2 or Ngan")
+    p.add_argument("--metric", default=DEFAULT_METRIC, help=f"Ngan, L2 or cosL2 (default {DEFAULT_METRIC})")
     p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"])
     p.add_argument("--init", help="XML file whose last fitting (or material) is the initial guess")
     p.add_argument("--init-fitting", type=int, default=None, help="use this stored fitting of --init")
@@ -344,9 +370,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--samples", choices=["all", "subset", "grid"], default="all")
     p.add_argument("--size", type=int, default=None, help="samples in a subset")
     p.add_argument("--density", type=int, default=None, help="bins per angle of a grid")
-    p.add_argument("--restarts", action="store_true", help="also start from model-aware guesses; keep the best")
+    p.add_argument("--restarts", action=argparse.BooleanOptionalAction, default=None,
+                   help="also start from each model's own guesses and keep the best (default: on, "
+                        "off when continuing an --init fit)")
     p.add_argument("--max-iterations", type=int, default=200)
-    p.add_argument("--time-limit", type=float, default=float("inf"), help="seconds")
+    p.add_argument("--time-limit", type=float, default=float("inf"),
+                   help="seconds (> 0); the fit stops within one sample chunk and keeps the best so far")
     p.add_argument("--out", help="write the source's XML with the new <Fitting> here")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_fit)

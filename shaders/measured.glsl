@@ -14,9 +14,10 @@ vec3 measured_eval(vec3 wi, vec3 wo) {
     float theta_d = precise_acos(d.z);
     float phi_d = atan(d.y, d.x);
     if (phi_d < 0.0) phi_d += PI;
+    // bin k's value sits at its centre (index k + 1/2, CONVENTIONS.md): idx puts centres on integers
     vec3 idx = vec3(phi_d / PI * u_table_size.x,
                     theta_d / (0.5 * PI) * u_table_size.y,
-                    sqrt(clamp(theta_h / (0.5 * PI), 0.0, 1.0)) * u_table_size.z);
+                    sqrt(clamp(theta_h / (0.5 * PI), 0.0, 1.0)) * u_table_size.z) - 0.5;
     idx.yz = clamp(idx.yz, vec2(0.0), u_table_size.yz - 1.0);
     return texture(u_table, (idx + 0.5) / u_table_size).rgb;
 }

@@ -47,7 +47,7 @@ def linear_table():
 
 def test_linear_strategy_recovers_known_parameters(linear_table):
     truth = truth_linear()
-    result = fit(perturbed(truth), TableSampleSet(linear_table), FitOptions(metric="L2", ftol=1e-12))
+    result = fit(perturbed(truth), TableSampleSet(linear_table), FitOptions(metric="L2", ftol=1e-12, restarts=False))
     assert result.status == "converged"
     got = result.material
     for k, v in truth.lobes[1].params.items():
@@ -64,7 +64,7 @@ def test_lafortune_is_recovered_up_to_its_scale_invariance():
     samples = analytic_grid(truth, 40)
     start = truth.copy()
     start.lobes[1].params.update(Cxy=-0.5, Cz=0.5, Exponent=20.0)
-    got = fit(start, samples, FitOptions(ftol=1e-12)).material.lobes[1]
+    got = fit(start, samples, FitOptions(ftol=1e-12, restarts=False)).material.lobes[1]
     assert relative_error(got.params["Cxy"] / got.params["Cz"], -0.62 / 0.51) < 1e-4
     assert relative_error(got.params["Exponent"], 55.0) < 1e-4
     np.testing.assert_allclose(got.scale, [0.4, 0.3, 0.2], rtol=1e-4)
@@ -82,7 +82,7 @@ def test_fixed_strategy_recovers_per_channel_lobes():
         lobe.scale = [lobe.scale[0] * 1.5]
         if lobe.params:
             lobe.params["Exponent"] *= 0.7
-    result = fit(start, samples, FitOptions(ftol=1e-12))
+    result = fit(start, samples, FitOptions(ftol=1e-12, restarts=False))
     for lt, lg in zip(truth.lobes, result.material.lobes):
         assert relative_error(lg.scale[0], lt.scale[0]) < 1e-4
         for k, v in lt.params.items():
@@ -96,7 +96,7 @@ def test_noise_degrades_the_fit_gracefully(linear_table):
     for level in (0.0, 0.02, 0.1):
         noisy = MeasuredTable(linear_table.values * (1 + level * rng.standard_normal(linear_table.values.shape)).astype(np.float32),
                               linear_table.valid)
-        r = fit(perturbed(truth), TableSampleSet(noisy), FitOptions(metric="cosL2"))
+        r = fit(perturbed(truth), TableSampleSet(noisy), FitOptions(metric="cosL2", restarts=False))
         errors.append(r.error)
         ms.append(r.material.lobes[1].params["m"])
     assert errors[0] < errors[1] < errors[2]
@@ -124,10 +124,13 @@ def test_real_slices_fit_better_than_published(name):
     samples = samples_of(table)
     published = metric_error(published_material(rows[name]), samples, "Ngan")
     start = material_from_lobes(["Lambertian", "LafortuneIso"], "Linear", 3)
-    result = fit(start, samples, FitOptions(metric="Ngan", restarts=True))
-    assert np.isfinite(result.error)
-    assert result.error == pytest.approx(metric_error(result.material, samples, "Ngan"), rel=1e-6)
+    result = fit(start, samples, FitOptions())  # the defaults alone: Ngan metric, restarts
+    assert result.metric == "Ngan" and np.isfinite(result.error)
+    assert result.error == pytest.approx(metric_error(result.material, samples, "Ngan"), rel=1e-9)
     assert result.error < published
+    if name == "nickel":  # on metals, Cook–Torrance does at least as well as Lafortune
+        ct = fit(material_from_lobes(["Lambertian", "CookTorrance"], "Linear", 3), samples, FitOptions())
+        assert ct.error <= result.error
 
 
 def test_cancel_keeps_the_best_so_far(linear_table):
@@ -142,7 +145,7 @@ def test_cancel_keeps_the_best_so_far(linear_table):
 
     start = perturbed(truth_linear(), 2.0)
     samples = TableSampleSet(linear_table)
-    result = fit(start, samples, FitOptions(), progress, cancel)
+    result = fit(start, samples, FitOptions(metric="L2", restarts=False), progress, cancel)
     assert result.status == "cancelled" and len(seen) == 1
     assert np.isfinite(result.error)
     # the start's scales are re-solved by NNLS, so compare with the first improvement's material
@@ -150,10 +153,14 @@ def test_cancel_keeps_the_best_so_far(linear_table):
 
 
 def test_iteration_and_time_caps(linear_table):
-    r = fit(perturbed(truth_linear(), 2.0), TableSampleSet(linear_table), FitOptions(max_iterations=2, coarse_size=0))
+    r = fit(perturbed(truth_linear(), 2.0), TableSampleSet(linear_table),
+            FitOptions(max_iterations=2, coarse_size=0, restarts=False))
     assert r.status == "max-iterations" and np.isfinite(r.error)
-    r = fit(perturbed(truth_linear(), 2.0), TableSampleSet(linear_table), FitOptions(time_limit=0.0, coarse_size=0))
+    r = fit(perturbed(truth_linear(), 2.0), TableSampleSet(linear_table), FitOptions(time_limit=1e-9, coarse_size=0))
     assert r.status == "time-limit" and np.isfinite(r.error)
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(BRDFLabError, match="time limit"):
+            FitOptions(time_limit=bad).validate()
 
 
 def test_extreme_starting_points_never_give_nan():
@@ -162,7 +169,7 @@ def test_extreme_starting_points_never_give_nan():
     for m, f0 in ((0.001, 0.0), (1.0, 1.0)):
         start = truth.copy()
         start.lobes[1].params.update(m=m, F0=f0)
-        r = fit(start, samples, FitOptions(metric="Ngan", compression="cbrt"))
+        r = fit(start, samples, FitOptions(metric="Ngan", compression="cbrt", restarts=False))
         assert np.isfinite(r.error)
         for lobe in r.material.lobes:
             assert all(np.isfinite(v) for v in lobe.params.values()) and all(np.isfinite(lobe.scale))
@@ -175,7 +182,7 @@ def test_compression_still_reports_the_named_metric():
     samples = analytic_grid(truth, 24)
     samples.values *= 1 + 0.05 * np.random.default_rng(2).standard_normal(samples.values.shape)
     start = perturbed(truth)
-    r = fit(start, samples, FitOptions(metric="cosL2", compression="log"))
+    r = fit(start, samples, FitOptions(metric="cosL2", compression="log", restarts=False))
     assert r.error > 1e-4
     assert r.error == pytest.approx(metric_error(r.material, samples, "cosL2"), rel=1e-6)
 
@@ -183,7 +190,7 @@ def test_compression_still_reports_the_named_metric():
 def test_memory_stays_under_three_tables(linear_table):
     table_bytes = linear_table.values.size * 4
     tracemalloc.start()
-    fit(perturbed(truth_linear()), TableSampleSet(linear_table), FitOptions())
+    fit(perturbed(truth_linear()), TableSampleSet(linear_table), FitOptions(restarts=False))
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     assert peak < 3 * table_bytes, peak / table_bytes
@@ -214,7 +221,7 @@ def merl_path(tmp_path_factory, linear_table):
 
 def test_fit_command_stores_a_fitting_and_refits_from_it(tmp_path, merl_path, capsys):
     out = tmp_path / "fit.xml"
-    code = main(["fit", str(merl_path), "--lobes", "Lambertian,CookTorrance", "--metric", "cosL2",
+    code = main(["fit", str(merl_path), "--lobes", "Lambertian,CookTorrance", "--metric", "cosL2", "--no-restarts",
                  "--out", str(out), "--json"])
     assert code == 0
     payload = json.loads(capsys.readouterr().out.splitlines()[-1])
@@ -226,8 +233,11 @@ def test_fit_command_stores_a_fitting_and_refits_from_it(tmp_path, merl_path, ca
     code = main(["fit", str(out), "--init", str(out), "--metric", "cosL2", "--out", str(out), "--json"])
     assert code == 0
     again = json.loads(capsys.readouterr().out.splitlines()[-1])
-    assert again["error"] <= payload["error"] * (1 + 1e-9)
-    assert again["iterations"] <= 5
+    assert again["error"] <= payload["error"]  # exactly: a refit never returns anything worse
+    # what was stored reads back bit for bit, and its error is the one reported
+    stored = load(out).fittings[0]
+    assert stored.error == payload["error"]
+    assert stored.material.lobes[1].params["m"] == payload["parameters"][1]["parameters"]["m"]
     assert len(load(out).fittings) == 2
 
 

@@ -11,6 +11,10 @@ Gram matrices of these lobe values. Because every residual is linear in the lobe
 values, the cost, JᵀJ and Jᵀr of all perturbations follow exactly from those small
 matrices: no Jacobian and no per-sample array is ever stored, so memory stays a small
 multiple of one chunk, and a MERL table is fitted in place.
+
+The error a fit reports is summed directly from the residuals in a last pass (the Gram
+expansion loses digits near an exact fit), and a fit never returns anything worse than
+its start: when it finds nothing better, it returns the start unchanged.
 """
 
 from __future__ import annotations
@@ -29,16 +33,17 @@ from scipy.optimize import nnls
 from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import get_model
-from brdflab.fitting.metrics import sample_weight
+from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULT_RESTARTS
+from brdflab.fitting.diagnosis import suspicions
+from brdflab.fitting.metrics import METRICS, metric_errors, sample_weight
 from brdflab.fitting.samples import SampleSet
 
-METRICS = {
-    "L2": "root-mean-square difference of BRDF values (1/sr)",
-    "cosL2": "root-mean-square difference of BRDF values times cos θi",
-    "Ngan": "Ngan et al. 2005: solid-angle weighted RMS of (f − f') cos θi, θi and θo below 80°",
-}
 COMPRESSIONS = ("none", "cbrt", "log")
 FD_STEP = 1e-4
+# a parameter that starts within this fraction of its (logistic) range from a bound is
+# moved inside first: on the bound itself the bounded map has no gradient
+START_MARGIN = 0.01
+
 
 
 # --- parameter transforms: unbounded search variables u ↔ bounded parameters x ------------
@@ -62,11 +67,16 @@ class Bounded:
         v = a + (b - a) / (1.0 + math.exp(-max(-40.0, min(40.0, u))))
         return min(self.hi, max(self.lo, self.lo + math.exp(v) - c if self.log else v))
 
-    def to_u(self, x: float) -> float:
+    def position(self, x: float) -> float:
+        """Where x lies in its range, 0 (lower bound) to 1 (upper), on the searched scale."""
         a, b, c = self._span()
         x = min(self.hi, max(self.lo, x))
         v = math.log(x - self.lo + c) if self.log else x
-        t = min(1.0 - 1e-12, max(1e-12, (v - a) / (b - a)))
+        return (v - a) / (b - a)
+
+    def to_u(self, x: float, margin: float = 1e-12) -> float:
+        """The search variable of x, at least `margin` (a fraction of the range) inside."""
+        t = min(1.0 - margin, max(margin, self.position(x)))
         return math.log(t / (1.0 - t))
 
 
@@ -77,7 +87,7 @@ class Positive:
     def to_x(self, u: float) -> float:
         return math.exp(max(-60.0, min(60.0, u)))
 
-    def to_u(self, x: float) -> float:
+    def to_u(self, x: float, margin: float = 0.0) -> float:
         return math.log(max(x, 1e-14))
 
 
@@ -100,11 +110,11 @@ class FreeBlock:
     def size(self) -> int:
         return len(self.names) - 1 if self.kind == "direction" else 1
 
-    def to_u(self, lobe: Lobe) -> list[float]:
+    def to_u(self, lobe: Lobe, margin: float = 1e-12) -> list[float]:
         if self.kind == "magnitude":
             return [self.transform.to_u(lobe.scale[0])]
         if self.kind == "scalar":
-            return [self.transform.to_u(lobe.params[self.names[0]])]
+            return [self.transform.to_u(lobe.params[self.names[0]], margin)]
         c = np.array([lobe.params[n] for n in self.names]) / self.norm
         if len(c) == 2:
             return [math.atan2(c[1], c[0])]
@@ -146,14 +156,15 @@ def free_blocks(material: AnalyticMaterial) -> list[FreeBlock]:
 
 @dataclass
 class FitOptions:
-    metric: str = "L2"
+    metric: str = DEFAULT_METRIC
     compression: str = "none"
     max_iterations: int = 200
-    time_limit: float = math.inf  # seconds
-    restarts: bool = False
+    time_limit: float = math.inf  # seconds, > 0
+    restarts: bool = DEFAULT_RESTARTS
     coarse_size: int = 60_000  # fit a stratified subset this large first (0: never)
-    ftol: float = 1e-6  # stop after two accepted steps that gain less than this fraction
+    ftol: float = 1e-5  # stop after two accepted steps that gain less than this fraction
     workers: int = 1  # threads for the sample passes (0: one per core; NumPy holds the GIL too often for more to pay)
+    diagnose: bool = True  # look for parameters on bounds and energy violations in the result
 
     def validate(self) -> None:
         if self.metric not in METRICS:
@@ -162,6 +173,8 @@ class FitOptions:
             raise BRDFLabError(f"unknown compression {self.compression!r} (known: {', '.join(COMPRESSIONS)})")
         if self.max_iterations < 1:
             raise BRDFLabError("max_iterations must be at least 1")
+        if not self.time_limit > 0:  # also refuses NaN
+            raise BRDFLabError(f"the time limit must be a positive number of seconds, not {self.time_limit:g}")
 
 
 @dataclass
@@ -180,21 +193,36 @@ class FitResult:
     seconds: float
     iterations: int
     evaluations: int
-    status: str  # converged | max-iterations | time-limit | cancelled | stalled
+    status: str  # converged | max-iterations | time-limit | cancelled | no-better-than-zero
     message: str = ""
     history: list[float] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  # parameters on bounds, energy violations
+    zero_error: float = math.nan  # the error of a zero BRDF on the same samples
+    scored_on: str = "all samples fitted"  # which samples `error` is measured over
+
+    @property
+    def suspect(self) -> bool:
+        return bool(self.warnings) or self.status == "no-better-than-zero"
 
     def statistics(self) -> dict:
-        return {"metric": self.metric, "seconds": round(self.seconds, 4), "iterations": self.iterations,
-                "evaluations": self.evaluations, "status": self.status}
+        stats = {"metric": self.metric, "seconds": round(self.seconds, 4), "iterations": self.iterations,
+                 "evaluations": self.evaluations, "status": self.status, "scoredOn": self.scored_on}
+        if self.warnings:
+            stats["warnings"] = "; ".join(self.warnings)
+        return stats
 
     def as_dict(self) -> dict:
-        return {"error": self.error, **self.statistics(), "message": self.message,
+        return {"error": self.error, **self.statistics(), "warnings": list(self.warnings),
+                "zero_error": self.zero_error, "message": self.message,
                 "parameters": self.material.describe()["lobes"]}
 
 
-class FitCancelled(Exception):
-    pass
+class _Stopped(Exception):
+    """Raised inside a sample pass when the fit must stop (cancel or time limit)."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
 
 
 # --- the problem ---------------------------------------------------------------------------
@@ -202,7 +230,8 @@ class FitCancelled(Exception):
 class _Problem:
     """Lobes, free parameters and a sample set; computes cost and normal equations."""
 
-    def __init__(self, material: AnalyticMaterial, samples: SampleSet, options: FitOptions) -> None:
+    def __init__(self, material: AnalyticMaterial, samples: SampleSet, options: FitOptions,
+                 stop: Callable[[], str | None] = lambda: None) -> None:
         if samples.n_channels != material.n_channels:
             raise BRDFLabError(
                 f"the source has {samples.n_channels} channels, the material {material.n_channels}")
@@ -217,6 +246,7 @@ class _Problem:
         self.owner = [b for b in self.blocks for _ in range(b.size)]
         self.shape_vars = [k for k, b in enumerate(self.owner) if b.kind != "magnitude"]
         self.passes = 0
+        self.stop = stop
         workers = options.workers or os.cpu_count() or 1
         self._pool = ThreadPoolExecutor(max_workers=workers) if workers > 1 else None
 
@@ -226,7 +256,8 @@ class _Problem:
 
     # vector <-> material
     def initial_u(self) -> np.ndarray:
-        return np.array([v for b in self.blocks for v in b.to_u(self.material.lobes[b.lobe])], float)
+        """The start's search vector, every bounded parameter START_MARGIN inside its range."""
+        return np.array([v for b in self.blocks for v in b.to_u(self.material.lobes[b.lobe], START_MARGIN)], float)
 
     def params_of(self, u: np.ndarray) -> tuple[list[dict], np.ndarray]:
         """Per-lobe parameter dicts and Fixed magnitudes for search vector u."""
@@ -265,8 +296,14 @@ class _Problem:
 
     def _chunk_grams(self, rows, chunk):
         wi, wo, y, w = chunk
-        cos_i = wi[:, 2]
+        reason = self.stop()
+        if reason is not None:
+            raise _Stopped(reason)
+        norm = float(self._metric_weight(wi, wo, w, cosine=False).sum())
         weight = self._metric_weight(wi, wo, w)
+        inside = weight > 0.0  # samples outside the metric's domain cost nothing
+        if not inside.all():
+            wi, wo, y, weight = wi[inside], wo[inside], y[inside], weight[inside]
         E = np.empty((len(rows), wi.shape[0]))
         for r, (l, p) in enumerate(rows):
             E[r] = self.material.lobes[l].model.evaluate(wi, wo, p)
@@ -283,14 +320,13 @@ class _Problem:
             Ew = E * wc
             G[c] = Ew @ E.T
             b[c] = Ew @ y[:, c]
-            yy[c] = wc @ (y[:, c] ** 2)
+            yy[c] = np.einsum("n,n->", wc, y[:, c] ** 2)  # not `@`: OpenBLAS threads 1-D dots badly
             if plain is not None:
                 L = plain.shape[1]
                 Eb = E[:L] * weight
                 plain[c] = Eb @ E[:L].T
                 plain_b[c] = Eb @ y[:, c]
-                plain_yy[c] = weight @ (y[:, c] ** 2)
-        norm = float(self._metric_weight(wi, wo, w, cosine=False).sum())
+                plain_yy[c] = np.einsum("n,n->", weight, y[:, c] ** 2)
         return G, b, yy, plain, plain_b, plain_yy, norm
 
     def _metric_weight(self, wi, wo, w, cosine: bool = True) -> np.ndarray:
@@ -406,87 +442,104 @@ ProgressCallback = Callable[[FitProgress], None]
 
 
 def _lm(problem: _Problem, u: np.ndarray, options: FitOptions, max_iterations: int, ftol: float,
-        stage: str, deadline: float, cancel: threading.Event | None,
-        progress: ProgressCallback | None, history: list[float], lam: float = 1e-3):
+        stage: str, progress: ProgressCallback | None, history: list[float], lam: float = 1e-3):
     """Minimise problem's cost from u.
 
-    Returns (u_best, state_best, iterations, status, final damping λ)."""
-    if u.size == 0:  # nothing nonlinear: the scaling factors alone are solved
-        state = problem.evaluate(u, with_jacobian=False)
-        return u, state, 0, "converged", lam
-    state = problem.evaluate(u)
+    Returns (u_best, state_best or None if stopped before the first pass, iterations,
+    status, final damping λ)."""
+    try:
+        if u.size == 0:  # nothing nonlinear: the scaling factors alone are solved
+            return u, problem.evaluate(u, with_jacobian=False), 0, "converged", lam
+        state = problem.evaluate(u)
+    except _Stopped as e:
+        return u, None, 0, e.reason, lam
     cost, jtj, jtr, error, scales = state
     if not math.isfinite(cost):
         raise BRDFLabError("the initial parameters give a non-finite error")
-    best = (cost, u.copy(), state)
+    best = (u.copy(), state)
     diag_floor = 1e-9 * max(float(np.max(np.diag(jtj))), 1e-300)
     small = 0
     cautious = False  # after a rejection, try steps on the cost alone (a cheaper pass)
     status = "max-iterations"
     it = 0
-    for it in range(1, max_iterations + 1):
-        if cancel is not None and cancel.is_set():
-            status = "cancelled"
-            break
-        if time.perf_counter() > deadline:
-            status = "time-limit"
-            break
-        D = np.maximum(np.diag(jtj), diag_floor)
-        # converged when even the undamped (Gauss–Newton) model promises almost nothing
-        gn = _solve(jtj + 1e-12 * np.diag(D), -jtr)
-        if gn is not None and -float(jtr @ gn) < ftol * cost:
-            status = "converged"
-            break
-        step = _solve(jtj + lam * np.diag(D), -jtr)
-        if step is None:
-            lam *= 4.0
-            continue
-        trial_u = u + step
-        trial = problem.evaluate(trial_u, with_jacobian=not cautious)
-        predicted = -float(step @ jtr) - 0.5 * float(step @ (jtj @ step))
-        if math.isfinite(trial[0]) and trial[0] < cost:
-            rho = (cost - trial[0]) / max(predicted, 1e-300)
-            small = small + 1 if cost - trial[0] < ftol * cost else 0
-            if cautious:
-                trial = problem.evaluate(trial_u)
-                cautious = False
-            u, state = trial_u, trial
-            cost, jtj, jtr, error, scales = state
-            best = (cost, u.copy(), state)
-            lam = lam / 5.0 if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
-            lam = max(lam, 1e-12)
-            history.append(error)
-            if progress is not None:
-                progress(FitProgress(stage, it, error, problem.material_of(u, scales)))
-            if small >= 2:
+    try:
+        for it in range(1, max_iterations + 1):
+            reason = problem.stop()
+            if reason is not None:
+                status = reason
+                break
+            D = np.maximum(np.diag(jtj), diag_floor)
+            # converged when even the undamped (Gauss–Newton) model promises almost nothing
+            gn = _solve(jtj + 1e-12 * np.diag(D), -jtr)
+            if gn is not None and -float(jtr @ gn) < ftol * cost:
                 status = "converged"
                 break
-        else:
-            if predicted < ftol * cost or small:
-                # the local model promises less than the tolerance, or the last accepted
-                # step already gained less and this one fails: nothing left to gain
-                status = "converged"
-                break
-            lam *= 4.0
-            cautious = True
-            if lam > 1e12:
-                status = "converged"  # no direction decreases the error any more
-                break
-    return best[1], best[2], it, status, lam
+            step = _solve(jtj + lam * np.diag(D), -jtr)
+            if step is None:
+                lam *= 4.0
+                continue
+            trial_u = u + step
+            trial = problem.evaluate(trial_u, with_jacobian=not cautious)
+            predicted = -float(step @ jtr) - 0.5 * float(step @ (jtj @ step))
+            if math.isfinite(trial[0]) and trial[0] < cost:
+                rho = (cost - trial[0]) / max(predicted, 1e-300)
+                small = small + 1 if cost - trial[0] < ftol * cost else 0
+                best = (trial_u.copy(), trial)  # the best so far, even if its Jacobian pass is stopped
+                if cautious:
+                    trial = problem.evaluate(trial_u)
+                    cautious = False
+                u, state = trial_u, trial
+                cost, jtj, jtr, error, scales = state
+                best = (u.copy(), state)
+                lam = lam / 5.0 if rho > 0.75 else (lam * 2.0 if rho < 0.25 else lam)
+                lam = max(lam, 1e-12)
+                history.append(error)
+                if progress is not None:
+                    progress(FitProgress(stage, it, error, problem.material_of(u, scales)))
+                if small >= 2:
+                    status = "converged"
+                    break
+            else:
+                if predicted < ftol * cost or small:
+                    # the local model promises less than the tolerance, or the last accepted
+                    # step already gained less and this one fails: nothing left to gain
+                    status = "converged"
+                    break
+                lam *= 4.0
+                cautious = True
+                if lam > 1e12:
+                    status = "converged"  # no direction decreases the error any more
+                    break
+    except _Stopped as e:
+        status = e.reason
+    return best[0], best[1], it, status, lam
+
+
+STOPPED = ("cancelled", "time-limit")
 
 
 def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | None = None,
-        progress: ProgressCallback | None = None, cancel: threading.Event | None = None) -> FitResult:
+        progress: ProgressCallback | None = None, cancel: threading.Event | None = None,
+        score_on: SampleSet | None = None) -> FitResult:
     """Fit `material`'s lobes to `samples`, starting from the material's parameters.
 
-    Never returns NaN: on cancellation, a time limit or an iteration cap it stops and
-    returns the best parameters seen, with `status` saying why.
+    Never returns NaN and never anything worse than the start (by the named metric on
+    the scored samples): on cancellation, a time limit or an iteration cap it stops
+    within one sample chunk and returns the best parameters seen, with `status` saying
+    why. `score_on` (default: `samples`) is the sample set the returned error is
+    measured on, e.g. all samples of a source fitted on a subset.
     """
     options = options or FitOptions()
     options.validate()
     material.validate()
     t0 = time.perf_counter()
     deadline = t0 + options.time_limit
+
+    def stop() -> str | None:
+        if cancel is not None and cancel.is_set():
+            return "cancelled"
+        return "time-limit" if time.perf_counter() > deadline else None
+
     history: list[float] = []
     iterations = 0
     passes = 0
@@ -502,73 +555,106 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
     # stage 1: every start on the coarse set (or the full set when it is small)
     stage_samples = coarse or samples
     candidates = []
+    status = "converged"
+    lam = 1e-3
     for start in start_materials:
-        problem = _Problem(start, stage_samples, options)
+        problem = _Problem(start, stage_samples, options, stop)
         try:
             u, state, its, status, lam = _lm(problem, problem.initial_u(), options,
                                              options.max_iterations if start is material else 40,
                                              max(1e-5, options.ftol) if coarse is not None else options.ftol,
-                                             "coarse" if coarse is not None else "fit", deadline, cancel,
-                                             progress, history)
+                                             "coarse" if coarse is not None else "fit", progress, history)
         finally:
             problem.close()
         iterations += its
         passes += problem.passes
-        candidates.append((state[0], problem.material_of(u, state[4]), status, lam))
-        if status in ("cancelled", "time-limit"):
+        if state is not None:
+            candidates.append((state[0], problem.material_of(u, state[4]), lam))
+        if status in STOPPED:
             break
-    cost, best_material, status, lam = min(candidates, key=lambda c: c[0])
-
-    # stage 2: polish the best on every sample
-    problem = _Problem(best_material, samples, options)
-    try:
-        if coarse is not None and status not in ("cancelled", "time-limit"):
-            u, state, its, status, _ = _lm(problem, problem.initial_u(), options, options.max_iterations,
-                                           options.ftol, "fit", deadline, cancel, progress, history, lam)
+    result_material = material
+    if candidates:
+        _, result_material, lam = min(candidates, key=lambda c: c[0])
+        # stage 2: polish the best on every sample
+        if coarse is not None and status not in STOPPED:
+            problem = _Problem(result_material, samples, options, stop)
+            try:
+                u, state, its, status, _ = _lm(problem, problem.initial_u(), options, options.max_iterations,
+                                               options.ftol, "fit", progress, history, lam)
+            finally:
+                problem.close()
             iterations += its
-        else:
-            u = problem.initial_u()
-            state = problem.evaluate(u, with_jacobian=False)
-        result_material = problem.material_of(u, state[4])
-        error = state[3]
-    finally:
-        problem.close()
-    passes += problem.passes
+            passes += problem.passes
+            if state is not None:
+                result_material = problem.material_of(u, state[4])
+
+    # the reported error: summed directly over the scored samples, against the start's
+    scored = score_on or samples
+    start_error, error, zero_error = metric_errors([material, result_material, None], scored, options.metric)
+    passes += 1
+    kept_start = not math.isfinite(error) or start_error <= error
+    if kept_start:
+        result_material, error = material.copy(), start_error
     if not math.isfinite(error):
         raise BRDFLabError("the fit produced a non-finite error")
     messages = {
         "converged": "converged",
         "max-iterations": f"stopped after {options.max_iterations} iterations",
-        "time-limit": f"stopped at the time limit of {options.time_limit:g} s",
+        "time-limit": f"stopped at the time limit of {options.time_limit:g} s; the best parameters so far are kept",
         "cancelled": "cancelled; the best parameters so far are kept",
     }
+    message = messages.get(status, status)
+    if kept_start and status == "converged":
+        message = "converged: nothing better than the start was found, so the start is returned unchanged"
+    if error >= zero_error and status not in STOPPED:
+        status = "no-better-than-zero"
+        message = (f"no better than a zero BRDF ({options.metric} {zero_error:.6g}): "
+                   "these lobes cannot represent this source")
+    warnings = suspicions(result_material) if options.diagnose else []
+    what = "all samples fitted" if score_on is None or score_on is samples else f"{scored.size} samples (all of the source)"
     return FitResult(result_material, error, options.metric, time.perf_counter() - t0, iterations,
-                     passes, status, messages.get(status, status), history)
+                     passes, status, message, history, warnings, zero_error, what)
+
+
+def _occurrences(names: list[str]) -> list[tuple[int, int]]:
+    """For each lobe: which occurrence of its model it is, and how many there are."""
+    return [(names[:k].count(n), names.count(n)) for k, n in enumerate(names)]
 
 
 def restart_guesses(material: AnalyticMaterial) -> list[AnalyticMaterial]:
-    """Model-aware starting points: the i-th guess gives every lobe its model's i-th start."""
+    """Model-aware starting points: the i-th guess gives every lobe its model's i-th start;
+    repeated lobes of one model take starts spread apart (a sharp and a broad lobe, …)."""
+    names = [l.model.name for l in material.lobes if l.channel in (None, 0)]
+    place = dict(zip(range(len(names)), _occurrences(names)))
     count = max(len(l.model.starts) for l in material.lobes)
     out = []
     for i in range(count):
         m = material.copy()
+        k = -1
         for lobe in m.lobes:
-            start = lobe.model.starts[i % len(lobe.model.starts)]
-            lobe.params.update(start)
+            k += lobe.channel in (None, 0)
+            j, n = place[k]
+            starts = lobe.model.starts
+            lobe.params.update(starts[(i + j * max(1, len(starts) // n)) % len(starts)])
         out.append(m)
     return out
 
 
 def material_from_lobes(names: list[str], combination: str, n_channels: int) -> AnalyticMaterial:
     """A starting material for `brdflab fit --lobes A,B,...`: model defaults, unit scales;
-    in Fixed combinations each named lobe is repeated for every channel."""
+    a model named more than once starts its lobes apart (its own starts, first to last), so
+    that they do not collapse onto one; in Fixed combinations each named lobe is repeated
+    for every channel."""
     if combination not in ("Linear", "Fixed"):
         raise BRDFLabError(f"combination must be linear or fixed, not {combination!r}")
     lobes: list[Lobe] = []
-    for name in names:
+    for name, (j, n) in zip(names, _occurrences(names)):
         model = get_model(name)
+        params = model.defaults()
+        if n > 1 and len(model.starts) > 1:
+            params.update(model.starts[round(j * (len(model.starts) - 1) / (n - 1))])
         if combination == "Linear":
-            lobes.append(Lobe(model, model.defaults(), [0.1] * n_channels))
+            lobes.append(Lobe(model, params, [0.1] * n_channels))
         else:
-            lobes.extend(Lobe(model, model.defaults(), [0.1], c) for c in range(n_channels))
+            lobes.extend(Lobe(model, dict(params), [0.1], c) for c in range(n_channels))
     return AnalyticMaterial("fit", combination, n_channels, lobes)

@@ -1,4 +1,9 @@
-"""The error metrics of fits, evaluated directly for any material and sample set."""
+"""The error metrics of fits, over one measure for every source (CONVENTIONS.md "Fit errors").
+
+Every metric weighs squared differences by the (ωi, ωo) solid-angle measure of the
+samples: Ngan and L2 over pairs with θi, θo ≤ 80°, cosL2 over the whole hemisphere.
+`grid_error` is the independent check: BRDFLab's own 16 θi × 16 θo × 64 φo grid.
+"""
 
 from __future__ import annotations
 
@@ -9,28 +14,65 @@ import numpy as np
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.samples import SampleSet
 
-NGAN_MAX_COS = math.cos(math.radians(80.0))
+MAX_THETA = math.radians(80.0)
+NGAN_MAX_COS = math.cos(MAX_THETA)
+METRICS = {
+    "Ngan": "Ngan et al. 2005: RMS of (f − f') cos θi over the solid-angle measure, θi and θo ≤ 80°",
+    "L2": "RMS of f − f' (1/sr) over the solid-angle measure, θi and θo ≤ 80°",
+    "cosL2": "RMS of (f − f') cos θi over the solid-angle measure of the whole hemisphere",
+}
 
 
 def sample_weight(metric: str, wi: np.ndarray, wo: np.ndarray, measure: np.ndarray, cosine: bool = True) -> np.ndarray:
     """Per-sample weight of squared differences under `metric` (cosine=False: the
-    normalising weight)."""
-    if metric == "L2":
-        return np.ones(wi.shape[0])
-    if metric == "cosL2":
-        return wi[:, 2] ** 2 if cosine else np.ones(wi.shape[0])
-    if metric == "Ngan":
-        ok = (wi[:, 2] >= NGAN_MAX_COS) & (wo[:, 2] >= NGAN_MAX_COS)
-        return np.where(ok, measure * (wi[:, 2] ** 2 if cosine else 1.0), 0.0)
-    raise BRDFLabError(f"unknown metric {metric!r}")
+    normalising weight, the measure of the metric's domain)."""
+    if metric not in METRICS:
+        raise BRDFLabError(f"unknown metric {metric!r} (known: {', '.join(METRICS)})")
+    w = np.asarray(measure, float)
+    if metric != "cosL2":
+        w = np.where((wi[:, 2] >= NGAN_MAX_COS) & (wo[:, 2] >= NGAN_MAX_COS), w, 0.0)
+    if cosine and metric != "L2":
+        w = w * wi[:, 2] ** 2
+    return w
+
+
+def metric_errors(materials: list, samples: SampleSet, metric: str) -> list[float]:
+    """The named-metric error of each material (None: a zero BRDF) over the samples, in one
+    pass: sqrt(Σ w (f − y)² / (Σ w_norm · C)), summed directly from the residuals."""
+    num = np.zeros(len(materials))
+    den = 0.0
+    for wi, wo, y, measure in samples.chunks():
+        w = sample_weight(metric, wi, wo, measure)
+        inside = w > 0.0
+        for k, material in enumerate(materials):
+            f = 0.0 if material is None else material.evaluate(wi[inside], wo[inside])
+            num[k] += float(np.einsum("n,n->", w[inside], ((f - y[inside]) ** 2).sum(axis=1)))
+        den += float(sample_weight(metric, wi, wo, measure, cosine=False).sum())
+    return [math.sqrt(n / max(den * samples.n_channels, 1e-300)) for n in num]
 
 
 def metric_error(material, samples: SampleSet, metric: str) -> float:
-    """sqrt(Σ w (f − y)² / (Σ w_norm · C)): the number a fit with `metric` reports."""
-    num = 0.0
-    den = 0.0
-    for wi, wo, y, measure in samples.chunks():
-        f = material.evaluate(wi, wo)
-        num += float(sample_weight(metric, wi, wo, measure) @ ((f - y) ** 2).sum(axis=1))
-        den += float(sample_weight(metric, wi, wo, measure, cosine=False).sum())
-    return math.sqrt(num / max(den * y.shape[1], 1e-300))
+    """The number a fit with `metric` reports for `material` on `samples`."""
+    return metric_errors([material], samples, metric)[0]
+
+
+def grid_error(reference, candidate, metric: str = "Ngan", n_theta: int = 16, n_phi: int = 64) -> float:
+    """The error between two sources on BRDFLab's grid: n_theta θi × n_theta θo × n_phi φo
+    cell centres with weights sin θi sin θo, φi = 0 for isotropic references (16 values of
+    φi otherwise). θ runs to 80° (Ngan, L2) or 90° (cosL2). An independent check of the
+    fitter's reported error: no sample set, no Gram matrices, no bin measures."""
+    if metric not in METRICS:
+        raise BRDFLabError(f"unknown metric {metric!r} (known: {', '.join(METRICS)})")
+    top = 0.5 * math.pi if metric == "cosL2" else MAX_THETA
+    theta = (np.arange(n_theta) + 0.5) * top / n_theta
+    phi_o = (np.arange(n_phi) + 0.5) * 2.0 * math.pi / n_phi
+    n_phi_i = 1 if getattr(reference, "isotropic", False) else 16
+    phi_i = np.arange(n_phi_i) * 2.0 * math.pi / n_phi_i
+    ti, pi, to, po = (a.ravel() for a in np.meshgrid(theta, phi_i, theta, phi_o, indexing="ij"))
+    wi = np.stack([np.sin(ti) * np.cos(pi), np.sin(ti) * np.sin(pi), np.cos(ti)], axis=1)
+    wo = np.stack([np.sin(to) * np.cos(po), np.sin(to) * np.sin(po), np.cos(to)], axis=1)
+    weight = np.sin(ti) * np.sin(to)
+    diff2 = ((np.asarray(candidate.evaluate(wi, wo)) - np.asarray(reference.evaluate(wi, wo))) ** 2).sum(axis=1)
+    if metric != "L2":
+        diff2 = diff2 * np.cos(ti) ** 2
+    return math.sqrt(float(np.einsum("n,n->", weight, diff2)) / (float(weight.sum()) * reference.n_channels))

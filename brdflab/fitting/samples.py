@@ -12,21 +12,34 @@ from typing import Iterator
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.geometry.halfdiff import N_PD, N_TD, N_TH, from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin
+from brdflab.geometry.halfdiff import (N_PD, N_TD, N_TH, from_half_diff, phi_d_of_bin, theta_d_edge, theta_d_of_bin,
+                                       theta_h_edge, theta_h_of_bin)
 from brdflab.sources.measured import MeasuredTable, RawSamples
 from brdflab.geometry.vec import spherical_to_cartesian
 
 Chunk = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
-def merl_cell_measure(ix: np.ndarray, iy: np.ndarray, n_pd: int) -> np.ndarray:
-    """Measure of MERL cells in (ωi, ωo) space: dωi dωo = 4 cos θd dωh dωd (Rusinkiewicz),
-    integrated over each θh and θd bin, 2π in φh and π/n_pd in φd."""
-    th0, th1 = theta_h_of_bin(ix), theta_h_of_bin(np.minimum(ix + 1, N_TH))
-    td0, td1 = theta_d_of_bin(iy), theta_d_of_bin(np.minimum(iy + 1, N_TD))
-    dh = np.cos(th0) - np.cos(th1)
-    dd = 0.5 * (np.sin(td1) ** 2 - np.sin(td0) ** 2)
-    return 4.0 * dh * dd * 2.0 * np.pi * (np.pi / n_pd)
+GOLDEN = 0.6180339887498949  # the golden ratio's fractional part: a low-discrepancy sequence
+
+
+def phi_h_of(index: np.ndarray) -> np.ndarray:
+    """The φh a sample gets: a golden-ratio sequence of its index (low discrepancy)."""
+    return 2.0 * np.pi * np.mod(np.asarray(index, float) * GOLDEN, 1.0)
+
+
+def rotate_about_normal(v: np.ndarray, cos_phi: np.ndarray, sin_phi: np.ndarray) -> np.ndarray:
+    return np.stack([cos_phi * v[:, 0] - sin_phi * v[:, 1], sin_phi * v[:, 0] + cos_phi * v[:, 1], v[:, 2]], axis=1)
+
+
+def spread_phi_h(wi: np.ndarray, wo: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate each pair about the normal by its own φh (`phi_h_of` its index). An isotropic
+    source has the same value at every φh, so this changes no data value; it makes the
+    samples cover φh, so that anisotropic lobes (Ward's ay, …) are fitted over the whole
+    (ωi, ωo) measure instead of the plane φh = 0."""
+    phi = phi_h_of(index)
+    c, s = np.cos(phi), np.sin(phi)
+    return rotate_about_normal(wi, c, s), rotate_about_normal(wo, c, s)
 
 
 class SampleSet:
@@ -85,84 +98,85 @@ def stratified_indices(n: int, k: int, seed: int = 0) -> np.ndarray:
 
 
 class TableSampleSet(SampleSet):
-    """Every valid sample of a measured table, generated row by row (one θh bin per
-    chunk) from the table itself: no per-sample arrays are kept."""
+    """Every valid sample of a measured table at its bin centres, generated row by row
+    (one θh bin per chunk) from the table itself: no per-sample arrays are kept.
+
+    A bivariate slice stands for every φd: it is expanded over MERL's 180 φd bins, so
+    that a slice and its full-table expansion are the same set of (ωi, ωo) samples.
+    Each sample gets its own φh (see `spread_phi_h`)."""
 
     def __init__(self, table: MeasuredTable, theta_h_bins: np.ndarray | None = None,
                  theta_d_bins: np.ndarray | None = None, phi_d_bins: np.ndarray | None = None) -> None:
         self.table = table
         self.n_channels = table.n_channels
-        npd = table.phi_d_samples
         self.ix = np.arange(N_TH) if theta_h_bins is None else np.asarray(theta_h_bins)
         self.iy = np.arange(N_TD) if theta_d_bins is None else np.asarray(theta_d_bins)
-        self.iz = np.arange(npd) if phi_d_bins is None else np.asarray(phi_d_bins)
-        td, pd = np.meshgrid(theta_d_of_bin(self.iy), phi_d_of_bin(self.iz) if npd > 1 else np.array([0.5 * np.pi]), indexing="ij")
-        self._td, self._pd = td.ravel(), pd.ravel()
-        self._d = spherical_to_cartesian(self._td, self._pd)  # difference vectors, shared by all rows
-        self._full_grid = len(self.iy) == N_TD and len(self.iz) == npd
-        iy, _ = np.meshgrid(self.iy, self.iz, indexing="ij")
-        self._cell = merl_cell_measure(np.zeros(1, int), iy.ravel(), npd)  # θh = bin 0; rescaled per row
-        self._dh = (np.cos(theta_h_of_bin(self.ix)) - np.cos(theta_h_of_bin(np.minimum(self.ix + 1, N_TH)))) / (
-            1.0 - np.cos(theta_h_of_bin(1)))
+        self.iz = np.arange(N_PD) if phi_d_bins is None else np.asarray(phi_d_bins)
+        iy, iz = np.meshgrid(np.arange(len(self.iy)), self.iz, indexing="ij")
+        self._col_ypos, self._col_y, self._col_z = iy.ravel(), self.iy[iy.ravel()], iz.ravel()
+        self._col_value_z = self._col_z if table.phi_d_samples > 1 else np.zeros_like(self._col_z)
+        td, pd = theta_d_of_bin(self._col_y), phi_d_of_bin(self._col_z)
+        self._d = spherical_to_cartesian(td, pd)  # difference vectors, shared by all rows
+        # sample (row x, column j) has φh = phi_h_of(x·columns + j) = row phase + column phase
+        col_phase = phi_h_of(np.arange(len(self._d)))
+        self._col_cos, self._col_sin = np.cos(col_phase), np.sin(col_phase)
+        # measure: each taken bin stands for the bins up to the next one taken (all, unless a grid)
+        y_next = np.append(self.iy[1:], N_TD)[self._col_ypos]
+        self._cell = 4.0 * 0.5 * (np.sin(theta_d_edge(y_next)) ** 2 - np.sin(theta_d_edge(self._col_y)) ** 2) \
+            * 2.0 * np.pi * (2.0 * np.pi / len(self.iz))  # φd over [0, 2π) folded onto [0, π) by reciprocity
+        self._row_weight = np.cos(theta_h_edge(self.ix)) - np.cos(theta_h_edge(np.append(self.ix[1:], N_TH)))
         # measured and geometrically meaningful: both directions above the surface
         th = theta_h_of_bin(self.ix)[:, None]
-        a = np.cos(th) * np.cos(self._td)[None, :]
-        b = np.sin(th) * (np.sin(self._td) * np.cos(self._pd))[None, :]
+        a = np.cos(th) * np.cos(td)[None, :]
+        b = np.sin(th) * (np.sin(td) * np.cos(pd))[None, :]
         above = (a - b > 1e-6) & (a + b > 1e-6)
-        self._row_valid = table.valid[np.ix_(self.ix, self.iy, self.iz)].reshape(len(self.ix), -1) & above
-        self.size = int(self._row_valid.sum())
+        valid = table.valid[np.ix_(self.ix, self.iy)]  # (rows, θd taken, φd of the table)
+        self._row_valid = valid[:, self._col_ypos, self._col_value_z] & above
+        self._row_start = np.concatenate([[0], np.cumsum(self._row_valid.sum(axis=1))])
+        self.size = int(self._row_start[-1])
         if self.size == 0:
             raise BRDFLabError("the source has no valid samples to fit", table.path)
 
-    def chunks(self, target: int = 65536) -> Iterator[Chunk]:
-        """Whole θh bins per chunk (about `target` samples): wi is the shared difference
-        vectors rotated by θh about y (φh = 0), wo their mirror about h."""
-        vals = self.table.values
-        parts: list[Chunk] = []
-        count = 0
-        for r, x in enumerate(self.ix):
-            ok = self._row_valid[r]
-            if not ok.any():
-                continue
-            th = float(theta_h_of_bin(x))
-            c, s = np.cos(th), np.sin(th)
-            d = self._d[ok]
-            wi = np.empty_like(d)
-            wi[:, 0] = c * d[:, 0] + s * d[:, 2]
-            wi[:, 1] = d[:, 1]
-            wi[:, 2] = c * d[:, 2] - s * d[:, 0]
-            wo = -wi
-            k = 2.0 * (s * wi[:, 0] + c * wi[:, 2])
-            wo[:, 0] += k * s
-            wo[:, 2] += k * c
-            block = vals[:, x] if self._full_grid else vals[:, x][:, self.iy][:, :, self.iz]
-            y = block.reshape(self.n_channels, -1)[:, ok].T
-            parts.append((wi, wo, y, self._cell[ok] * self._dh[r]))
-            count += len(y)
-            if count >= target:
-                yield _join(parts)
-                parts, count = [], 0
-        if parts:
-            yield _join(parts)
+    def _row(self, r: int, cols: np.ndarray) -> Chunk:
+        """Samples of row r (θh bin self.ix[r]) at columns `cols`: wi is the difference
+        vector rotated by θh about y, wo its mirror about h, both then turned by φh."""
+        x = int(self.ix[r])
+        th = float(theta_h_of_bin(x))
+        c, s = np.cos(th), np.sin(th)
+        d = self._d[cols]
+        wi = np.empty_like(d)
+        wi[:, 0] = c * d[:, 0] + s * d[:, 2]
+        wi[:, 1] = d[:, 1]
+        wi[:, 2] = c * d[:, 2] - s * d[:, 0]
+        wo = -wi
+        k = 2.0 * (s * wi[:, 0] + c * wi[:, 2])
+        wo[:, 0] += k * s
+        wo[:, 2] += k * c
+        row_phase = 2.0 * np.pi * ((x * len(self._d) * GOLDEN) % 1.0)
+        cr, sr = np.cos(row_phase), np.sin(row_phase)
+        cc, sc = self._col_cos[cols], self._col_sin[cols]
+        cos_phi, sin_phi = cr * cc - sr * sc, sr * cc + cr * sc
+        wi, wo = rotate_about_normal(wi, cos_phi, sin_phi), rotate_about_normal(wo, cos_phi, sin_phi)
+        y = self.table.values[:, x, self._col_y[cols], self._col_value_z[cols]].T.astype(float)
+        return wi, wo, y, self._cell[cols] * self._row_weight[r]
+
+    def chunks(self) -> Iterator[Chunk]:
+        """One θh bin per chunk (at most 16,200 samples)."""
+        for r in range(len(self.ix)):
+            cols = np.flatnonzero(self._row_valid[r])
+            if cols.size:
+                yield self._row(r, cols)
 
     def subset(self, size: int, seed: int = 0) -> ArraySampleSet:
-        """A stratified subset of `size` samples, as arrays."""
-        counts = self._row_valid.sum(axis=1)
-        start = np.concatenate([[0], np.cumsum(counts)])
+        """A stratified subset of `size` samples, as arrays (weights scaled to the whole)."""
         pos = stratified_indices(self.size, min(size, self.size), seed)
-        rows = np.searchsorted(start, pos, side="right") - 1
-        cols = np.empty_like(pos)
+        rows = np.searchsorted(self._row_start, pos, side="right") - 1
+        parts = []
         for r in np.unique(rows):  # one θh row at a time: no array of every valid index
-            here = rows == r
-            cols[here] = np.flatnonzero(self._row_valid[r])[pos[here] - start[r]]
-        ix = self.ix[rows]
-        iy = self.iy[cols // len(self.iz)]
-        iz = self.iz[cols % len(self.iz)]
-        pd = phi_d_of_bin(iz) if self.table.phi_d_samples > 1 else np.full(ix.shape, 0.5 * np.pi)
-        wi, wo = from_half_diff(theta_h_of_bin(ix), 0.0, theta_d_of_bin(iy), pd)
-        values = self.table.values[:, ix, iy, iz].T.astype(float)
-        weight = merl_cell_measure(ix, iy, self.table.phi_d_samples) * (self.size / ix.size)
-        return ArraySampleSet(wi, wo, values, weight)
+            cols = np.flatnonzero(self._row_valid[r])[pos[rows == r] - self._row_start[r]]
+            parts.append(self._row(int(r), cols))
+        wi, wo, values, weight = _join(parts)
+        return ArraySampleSet(wi, wo, values, weight * (self.size / pos.size))
 
 
 def analytic_grid(source, density: int = 32, phi_h_bins: int | None = None) -> ArraySampleSet:
@@ -179,11 +193,13 @@ def analytic_grid(source, density: int = 32, phi_h_bins: int | None = None) -> A
     ph = (np.arange(nph) + 0.5) / nph * 2.0 * np.pi if nph > 1 else np.zeros(1)
     TH, PH, TD, PD = np.meshgrid(th, ph, td, pd, indexing="ij")
     wi, wo = from_half_diff(TH.ravel(), PH.ravel(), TD.ravel(), PD.ravel())
+    if nph == 1:  # isotropic: any φh stands for all; spread them for anisotropic lobes
+        wi, wo = spread_phi_h(wi, wo, np.arange(wi.shape[0]))
     keep = (wi[:, 2] > 1e-6) & (wo[:, 2] > 1e-6)
     wi, wo = wi[keep], wo[keep]
     # measure: 4 cos θd sin θh dθh sin θd dθd dφh dφd, with dθh = π x dx
     w = (4.0 * np.cos(TD) * np.sin(TH) * (np.pi * np.sqrt(TH / (0.5 * np.pi)) * 0.5 * np.pi / d)
-         * np.sin(TD) * (0.5 * np.pi / d) * (2 * np.pi / nph) * (np.pi / (2 * d))).ravel()[keep]
+         * np.sin(TD) * (0.5 * np.pi / d) * (2 * np.pi / nph) * (2 * np.pi / (2 * d))).ravel()[keep]
     values = source.evaluate(wi, wo)
     ok = np.all(np.isfinite(values), axis=1)
     return ArraySampleSet(wi[ok], wo[ok], values[ok], w[ok])
@@ -198,7 +214,7 @@ def samples_of(source, kind: str = "all", size: int | None = None, density: int 
         if kind == "grid":
             step = max(1, N_TH // max(2, density or 45))
             full = TableSampleSet(source, np.arange(0, N_TH, step), np.arange(0, N_TD, step),
-                                  np.arange(0, source.phi_d_samples, step))
+                                  np.arange(0, N_PD, step))
         else:
             full = TableSampleSet(source)
         return full.subset(size or 50_000) if kind == "subset" else full

@@ -41,21 +41,38 @@ def from_half_diff(theta_h, phi_h, theta_d, phi_d) -> tuple[np.ndarray, np.ndarr
 
 
 def theta_h_of_bin(x) -> np.ndarray:
-    """θh of MERL bin x: (x/90)² · π/2 (bins are denser near the specular peak)."""
-    return (np.asarray(x, float) / N_TH) ** 2 * HALF_PI
+    """θh at the centre of MERL bin x, in index space: ((x + ½)/90)² · π/2.
+
+    MERL's lookup takes the floor of √(θh/(π/2))·90, so a bin's value stands for the
+    whole bin and its representative is the bin's centre (CONVENTIONS.md "Measured tables")."""
+    return ((np.asarray(x, float) + 0.5) / N_TH) ** 2 * HALF_PI
 
 
 def theta_d_of_bin(y) -> np.ndarray:
+    """θd at the centre of bin y: (y + ½)/90 · π/2."""
+    return (np.asarray(y, float) + 0.5) / N_TD * HALF_PI
+
+
+def phi_d_of_bin(z, n_pd: int = N_PD) -> np.ndarray:
+    """φd at the centre of bin z of n_pd bins over [0, π): (z + ½)/n_pd · π."""
+    return (np.asarray(z, float) + 0.5) / n_pd * np.pi
+
+
+def theta_h_edge(x) -> np.ndarray:
+    """Lower edge of θh bin x (x = 90: the upper edge of the last bin, π/2)."""
+    return (np.asarray(x, float) / N_TH) ** 2 * HALF_PI
+
+
+def theta_d_edge(y) -> np.ndarray:
+    """Lower edge of θd bin y (y = 90: π/2)."""
     return np.asarray(y, float) / N_TD * HALF_PI
 
 
-def phi_d_of_bin(z) -> np.ndarray:
-    return np.asarray(z, float) / N_PD * np.pi
-
-
 def continuous_bins(theta_h, theta_d, phi_d) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Fractional bin coordinates; φd folded into [0, π) by reciprocity (f(φd) = f(φd + π))."""
-    x = N_TH * np.sqrt(np.clip(theta_h, 0.0, HALF_PI) / HALF_PI)
-    y = np.clip(theta_d, 0.0, HALF_PI) / HALF_PI * N_TD
-    z = np.mod(phi_d, np.pi) / np.pi * N_PD
+    """Fractional bin coordinates in which integer k is bin k's centre (so that
+    interpolation runs between centres and rounding is MERL's floor lookup); φd folded
+    into [0, π) by reciprocity (f(φd) = f(φd + π)), so z may be −½ (wraps to bin 179)."""
+    x = N_TH * np.sqrt(np.clip(theta_h, 0.0, HALF_PI) / HALF_PI) - 0.5
+    y = np.clip(theta_d, 0.0, HALF_PI) / HALF_PI * N_TD - 0.5
+    z = np.mod(phi_d, np.pi) / np.pi * N_PD - 0.5
     return x, y, z

@@ -31,6 +31,7 @@ from PySide6.QtWidgets import (
 
 from brdflab.gui.background import LatestOnly
 from brdflab.material.albedo import energy_check
+from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
 from brdflab.fitting.lm import METRICS
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.models import model_names
@@ -395,7 +396,8 @@ class FittingPanel(QWidget):
         self.strategy.addItems(["Linear", "Fixed"])
         self.metric = QComboBox()
         self.metric.addItems(list(METRICS))
-        self.metric.setCurrentText("Ngan")
+        self.metric.setCurrentText(DEFAULT_METRIC)  # the core's default, the same as the command line's
+        self.metric.setToolTip(DEFAULTS_WHY)
         self.sample_kind = QComboBox()
         self.sample_kind.addItems(["all", "subset", "grid"])
         self.size = QSpinBox(minimum=1000, maximum=2_000_000, value=50_000, singleStep=10_000)

@@ -77,9 +77,10 @@ class MeasuredTable:
         return np.where(above[..., None], out, 0.0)
 
     def _nearest(self, x, y, z) -> np.ndarray:
-        ix = np.clip(np.rint(x).astype(int), 0, N_TH - 1)
-        iy = np.clip(np.rint(y).astype(int), 0, N_TD - 1)
-        iz = np.rint(z).astype(int) % self.phi_d_samples
+        # x, y, z put bin centres on integers: floor(x + ½) is MERL's own floor lookup
+        ix = np.clip(np.floor(x + 0.5).astype(int), 0, N_TH - 1)
+        iy = np.clip(np.floor(y + 0.5).astype(int), 0, N_TD - 1)
+        iz = np.floor(z + 0.5).astype(int) % self.phi_d_samples
         vals = self.values[:, ix, iy, iz]
         ok = self.valid[ix, iy, iz]
         return np.where(ok, vals, 0.0).T.astype(float)

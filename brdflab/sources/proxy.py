@@ -19,7 +19,8 @@ def proxy_lobes(source) -> AnalyticMaterial:
     start = material_from_lobes(["Lambertian", "CookTorrance", "CookTorrance"], "Linear", table.n_channels)
     start.lobes[1].params["m"], start.lobes[2].params["m"] = 0.05, 0.35
     result = fit(start, samples_of(table, "subset", size=20_000),
-                 FitOptions(metric="Ngan", coarse_size=0, max_iterations=60))
+                 FitOptions(metric="Ngan", coarse_size=0, max_iterations=60, restarts=False,
+                            diagnose=False))
     for lobe in result.material.lobes:  # a lobe the fit switched off still deserves samples
         lobe.scale = [max(s, 1e-6) for s in lobe.scale]
     return result.material

@@ -1,0 +1,50 @@
+"""Why a fit's result may be suspect, in words a user can act on: parameters that ended
+on a bound of their range, and energy violations (albedo above 1)."""
+
+from __future__ import annotations
+
+from brdflab.material.albedo import energy_check
+from brdflab.material.analytic import AnalyticMaterial
+
+BOUND_TOLERANCE = 1e-4  # of the parameter's range (of its logarithm for log-scale parameters)
+
+
+def at_bound(value: float, lower: float, upper: float, log: bool) -> str | None:
+    """'lower' or 'upper' when `value` sits on that bound: within BOUND_TOLERANCE of the
+    range on the scale the fitter searches (logarithmic for log-scale parameters)."""
+    from brdflab.fitting.lm import Bounded  # the fitter's own parametrisation (lm imports this module)
+
+    t = Bounded(lower, upper, log).position(value)
+    if t <= BOUND_TOLERANCE:
+        return "lower"
+    if t >= 1.0 - BOUND_TOLERANCE:
+        return "upper"
+    return None
+
+
+def bound_warnings(material: AnalyticMaterial) -> list[str]:
+    """One line per lobe parameter on a bound (scale-invariant directions excluded)."""
+    out = []
+    for k, lobe in enumerate(material.lobes):
+        for p in lobe.model.parameters:
+            if p.name in lobe.model.scale_invariant:
+                continue
+            side = at_bound(lobe.params[p.name], p.lower, p.upper, p.log)
+            if side is not None:
+                bound = p.lower if side == "lower" else p.upper
+                out.append(f"lobe {k} ({lobe.model.name}) {p.name} = {lobe.params[p.name]:.6g} is on its {side} bound {bound:g}")
+    return out
+
+
+def energy_warnings(material: AnalyticMaterial) -> list[str]:
+    """A line when some channel reflects more than it receives (albedo > 1)."""
+    report = energy_check(material)
+    if report.conserves:
+        return []
+    worst = max(float(a) for a in report.max_albedo)
+    return [f"violates energy conservation: albedo up to {worst:.3g} (> 1)"]
+
+
+def suspicions(material: AnalyticMaterial) -> list[str]:
+    """Everything that makes a fitted material suspect (empty: nothing found)."""
+    return bound_warnings(material) + energy_warnings(material)
