@@ -43,4 +43,8 @@ def pytest_collection_modifyitems(config, items):
     """Run the Qt window tests first: once a headless EGL context (the render tests') is
     current on the main thread, Mesa cannot make Qt's GLX contexts current on it. The
     application itself never mixes the two in one process."""
-    items.sort(key=lambda item: 0 if item.fspath.basename == "test_gui.py" else 1)
+    def is_window_test(item) -> bool:
+        name = item.fspath.basename
+        return name.startswith("test_gui") or name.endswith("_gui.py")
+
+    items.sort(key=lambda item: 0 if is_window_test(item) else 1)
