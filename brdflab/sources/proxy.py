@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from brdflab.material.analytic import AnalyticMaterial
 
+# Cook–Torrance m floor of the proxy: lobes fitted to a mirror-like table come out far
+# narrower (m ≈ 0.003) than the table's peak, and samples of the other lobes landing near
+# the mirror direction then weigh f/pdf wildly (dark discs with bright rims, one per sample).
+MIN_ROUGHNESS = 0.05
+
 
 def proxy_lobes(source) -> AnalyticMaterial:
     """A Lambertian + two Cook–Torrance fit (Ngan metric, a stratified subset): the
@@ -23,4 +28,6 @@ def proxy_lobes(source) -> AnalyticMaterial:
                             diagnose=False))
     for lobe in result.material.lobes:  # a lobe the fit switched off still deserves samples
         lobe.scale = [max(s, 1e-6) for s in lobe.scale]
+        if "m" in lobe.params:
+            lobe.params["m"] = max(lobe.params["m"], MIN_ROUGHNESS)
     return result.material
