@@ -233,6 +233,20 @@ def cmd_gui(args: argparse.Namespace) -> int:
     return run(getattr(args, "file", None))
 
 
+def cmd_export(args: argparse.Namespace) -> int:
+    from brdflab.export.merl import export_merl
+    from brdflab.sources.files import load_source
+
+    source = load_source(Path(args.source), fitting=args.fitting)
+    out = Path(args.out)
+    try:
+        export_merl(source, out)
+    except OSError as e:
+        raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
+    _emit(args, {"out": str(out), "format": args.format}, f"wrote {args.format} export to {out}")
+    return 0
+
+
 # --- parser ------------------------------------------------------------------------------
 
 def build_parser() -> argparse.ArgumentParser:
@@ -299,6 +313,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("export", help="write a material or stored fit for other tools")
+    p.add_argument("source", help="XML material or measured data file")
+    p.add_argument("--format", choices=["merl"], default="merl", help="merl: a MERL .binary table")
+    p.add_argument("--fitting", type=int, default=None, help="export the K-th stored fit")
+    p.add_argument("--out", required=True)
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("bench", help="speed/accuracy charts (PNG) and numbers (JSON)")
     p.add_argument("--quick", action="store_true", help="smaller sizes, fewer sample counts")

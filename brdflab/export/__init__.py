@@ -1,0 +1,1 @@
+"""Export a material or stored fit in formats other tools read."""
