@@ -234,13 +234,13 @@ def cmd_gui(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from brdflab.export.merl import export_merl
+    from brdflab.export import export_source
     from brdflab.sources.files import load_source
 
     source = load_source(Path(args.source), fitting=args.fitting)
     out = Path(args.out)
     try:
-        export_merl(source, out)
+        export_source(source, args.format, out, origin=Path(args.source))
     except OSError as e:
         raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
     _emit(args, {"out": str(out), "format": args.format}, f"wrote {args.format} export to {out}")
@@ -316,7 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("export", help="write a material or stored fit for other tools")
     p.add_argument("source", help="XML material or measured data file")
-    p.add_argument("--format", choices=["merl"], default="merl", help="merl: a MERL .binary table")
+    p.add_argument("--format", choices=["merl", "glsl"], required=True,
+                   help="merl: a MERL .binary table (any source, tabulated); glsl: a GLSL function with the parameters baked in")
     p.add_argument("--fitting", type=int, default=None, help="export the K-th stored fit")
     p.add_argument("--out", required=True)
     p.add_argument("--json", action="store_true")
