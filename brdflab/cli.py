@@ -186,7 +186,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
     if args.mode in ("fis", "sh"):
         env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
-        renderer.set_environment(load_environment(env_path))
+        renderer.set_environment(load_environment(env_path, args.env_layout))
     if args.mode == "sh":
         renderer.set_sh_order(args.sh_order, None if args.sh_window == "none" else args.sh_window)
         renderer.sh_shadows = args.sh_shadows
@@ -299,6 +299,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--view", choices=["reference", "orbit"], default="orbit")
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")
     p.add_argument("--env", help="environment map (.hdr or .exr); default: the shipped CC0 map")
+    p.add_argument("--env-layout", choices=["auto", "latlong", "angular", "dual-paraboloid"], default="auto",
+                   help="light-probe layout of --env; auto: a square image with a disk is an angular map")
     p.add_argument("--env-rotation", type=float, default=0.0, help="degrees about +Y")
     p.add_argument("--light", default="0,0,1", help="direction towards the light, X,Y,Z (world)")
     p.add_argument("--samples", type=int, default=64)
