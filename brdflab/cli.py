@@ -318,8 +318,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("export", help="write a material or stored fit for other tools")
     p.add_argument("source", help="XML material or measured data file")
-    p.add_argument("--format", choices=["merl", "glsl"], required=True,
-                   help="merl: a MERL .binary table (any source, tabulated); glsl: a GLSL function with the parameters baked in")
+    p.add_argument("--format", choices=["merl", "brdf-explorer", "glsl"], required=True,
+                   help="merl: a MERL .binary table (any source, tabulated); brdf-explorer: a Disney BRDF Explorer .brdf; glsl: a GLSL function with the parameters baked in")
     p.add_argument("--fitting", type=int, default=None, help="export the K-th stored fit")
     p.add_argument("--out", required=True)
     p.add_argument("--json", action="store_true")

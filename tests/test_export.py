@@ -101,3 +101,69 @@ def test_glsl_export_matches_numpy(tmp_path, name):
 def test_glsl_export_refuses_measured_tables(exported, tmp_path):
     result = _cli("export", str(exported), "--format", "glsl", "--out", "x.glsl", cwd=tmp_path)
     assert result.returncode == 2 and str(exported) in result.stderr and not (tmp_path / "x.glsl").exists()
+
+
+def parse_brdf_explorer(text: str) -> tuple[dict[str, list[float]], str]:
+    """A small reader of BRDF Explorer's format: parameters (type, name, values) and the shader."""
+    params, shader, block = {}, [], None
+    for line in text.splitlines():
+        if line.startswith("::begin "):
+            block = line.split()[1]
+        elif line.startswith("::end"):
+            block = None
+        elif block == "parameters" and line.strip() and not line.startswith("#"):
+            kind, name, *values = line.split()
+            assert kind in ("float", "color", "bool"), line
+            numbers = [float(v) for v in values]
+            if kind == "float":
+                lo, hi, default = numbers
+                assert lo <= default <= hi, line
+            params[name] = (kind, numbers)
+        elif block == "shader":
+            shader.append(line)
+    return params, "\n".join(shader)
+
+
+HARNESS = """
+in vec3 in_wi;
+in vec3 in_wo;
+out vec3 out_f;
+void main() {
+    // a tilted, rotated frame: BRDF() must move L and V into it itself
+    vec3 N = normalize(vec3(0.3, -0.2, 1.0));
+    vec3 X = normalize(cross(vec3(0.0, 1.0, 0.0), N));
+    vec3 Y = cross(N, X);
+    vec3 L = in_wi.x * X + in_wi.y * Y + in_wi.z * N;
+    vec3 V = in_wo.x * X + in_wo.y * Y + in_wo.z * N;
+    out_f = BRDF(L, V, N, X, Y);
+}
+"""
+
+
+@pytest.mark.parametrize("name", ["fig2_lambertian_lafortune.xml", "ward.xml"])
+def test_brdf_explorer_file_parses_and_runs(tmp_path, name):
+    from brdflab.render.context import create_context
+
+    path = ROOT / "materials" / name
+    result = _cli("export", str(path), "--format", "brdf-explorer", "--out", "m.brdf", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    text = (tmp_path / "m.brdf").read_text()
+    assert text.startswith("analytic")
+    params, shader = parse_brdf_explorer(text)
+    assert "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)" in shader
+    decls = "".join(f"uniform {'vec3' if kind == 'color' else 'float'} {n};\n" for n, (kind, _) in params.items())
+    ctx = create_context()
+    prog = ctx.program(vertex_shader="#version 330 core\n" + decls + shader + HARNESS, varyings=["out_f"])
+    for n, (kind, values) in params.items():
+        if n in prog:
+            prog[n].value = tuple(values) if kind == "color" else values[2]
+    rng = np.random.default_rng(11)
+    wi, wo = random_upper(rng, 2000), random_upper(rng, 2000)
+    vbo = ctx.buffer(np.hstack([wi, wo]).astype("f4").tobytes())
+    vao = ctx.vertex_array(prog, [(vbo, "3f 3f", "in_wi", "in_wo")])
+    out = ctx.buffer(reserve=len(wi) * 12)
+    vao.transform(out, vertices=len(wi))
+    got = np.frombuffer(out.read(), "f4").reshape(-1, 3).astype(float)
+    want = load(path).material.evaluate(wi.astype("f4").astype(float), wo.astype("f4").astype(float))
+    want = np.repeat(want, 3, axis=1) if want.shape[1] == 1 else want
+    np.testing.assert_allclose(got, want, rtol=2e-3, atol=1e-4 * want.max())

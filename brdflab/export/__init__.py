@@ -7,7 +7,7 @@ from pathlib import Path
 
 from brdflab.errors import BRDFLabError
 
-FORMATS = ("merl", "glsl")
+FORMATS = ("merl", "brdf-explorer", "glsl")
 
 
 def export_source(source, fmt: str, path: str | os.PathLike, origin: Path | None = None) -> None:
@@ -20,13 +20,14 @@ def export_source(source, fmt: str, path: str | os.PathLike, origin: Path | None
         from brdflab.export.merl import export_merl
 
         export_merl(source, path)
-    elif fmt == "glsl":
+    elif fmt in ("glsl", "brdf-explorer"):
+        from brdflab.export.brdf_explorer import brdf_explorer_file
         from brdflab.export.glsl import glsl_function
         from brdflab.material.analytic import AnalyticMaterial
 
         if not isinstance(source, AnalyticMaterial):
-            raise BRDFLabError("GLSL export needs an analytic material or a stored fit (--fitting K)", origin or path)
-
-        atomic_write(path, glsl_function(source).encode())
+            raise BRDFLabError(f"{fmt} export needs an analytic material or a stored fit (--fitting K)", origin or path)
+        text = glsl_function(source) if fmt == "glsl" else brdf_explorer_file(source)
+        atomic_write(path, text.encode())
     else:
         raise BRDFLabError(f"unknown export format {fmt!r}; one of {', '.join(FORMATS)}", path)
