@@ -224,7 +224,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
     if args.mode in ("fis", "sh"):
         env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
-        renderer.set_environment(load_environment(env_path))
+        renderer.set_environment(load_environment(env_path, args.env_layout))
     if args.mode == "sh":
         renderer.set_sh_order(args.sh_order, None if args.sh_window == "none" else args.sh_window)
         renderer.sh_shadows = args.sh_shadows
@@ -326,6 +326,20 @@ def display_problem(env) -> str | None:
             "or set DISPLAY to an X server")
 
 
+def cmd_export(args: argparse.Namespace) -> int:
+    from brdflab.export import export_source
+    from brdflab.sources.files import load_source
+
+    source = load_source(Path(args.source), fitting=args.fitting)
+    out = Path(args.out)
+    try:
+        export_source(source, args.format, out, origin=Path(args.source))
+    except OSError as e:
+        raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
+    _emit(args, {"out": str(out), "format": args.format}, f"wrote {args.format} export to {out}")
+    return 0
+
+
 # --- parser ------------------------------------------------------------------------------
 
 def build_parser() -> argparse.ArgumentParser:
@@ -399,6 +413,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--view", choices=["reference", "orbit"], default="orbit")
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")
     p.add_argument("--env", help="environment map (.hdr or .exr); default: the shipped CC0 map")
+    p.add_argument("--env-layout", choices=["auto", "latlong", "angular", "dual-paraboloid"], default="auto",
+                   help="light-probe layout of --env; auto: a square image with a disk is an angular map")
     p.add_argument("--env-rotation", type=float, default=0.0, help="degrees about +Y")
     p.add_argument("--light", default="0,0,1", help="direction towards the light, X,Y,Z (world)")
     p.add_argument("--samples", type=int, default=64)
@@ -425,6 +441,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="the XML material to write")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_simulate)
+
+
+    p = sub.add_parser("export", help="write a material or stored fit for other tools")
+    p.add_argument("source", help="XML material or measured data file")
+    p.add_argument("--format", choices=["merl", "brdf-explorer", "glsl"], required=True,
+                   help="merl: a MERL .binary table (any source, tabulated); brdf-explorer: a Disney BRDF Explorer .brdf; glsl: a GLSL function with the parameters baked in")
+    p.add_argument("--fitting", type=int, default=None, help="export the K-th stored fit")
+    p.add_argument("--out", required=True)
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("bench", help="speed/accuracy charts (PNG) and numbers (JSON)")
     p.add_argument("--quick", action="store_true", help="smaller sizes, fewer sample counts")

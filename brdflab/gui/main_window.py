@@ -10,6 +10,8 @@ from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence, QUndoCommand, QUndoStack
 from PySide6.QtWidgets import QDockWidget, QFileDialog, QMainWindow, QMessageBox, QProgressBar, QPushButton
 
+from brdflab.gui.export_dialog import export_dialog
+
 from brdflab import workspace as ws_ops
 from brdflab.lighting.envmap import load_environment
 from brdflab.errors import BRDFLabError
@@ -180,6 +182,8 @@ class MainWindow(QMainWindow):
             action.setShortcut(shortcut)
             action.triggered.connect(slot)
             file.addAction(action)
+        export = file.addAction("E&xport…")  # the shown fit, else the material (gui/export_dialog.py)
+        export.triggered.connect(lambda: export_dialog(self, self.workspace.fitted() or self.workspace.original()))
         self.recent_menu = file.addMenu("Recent files")
         file.addSeparator()
         quit_action = QAction("&Quit", self)

@@ -210,8 +210,14 @@ def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
         tmp.unlink(missing_ok=True)
 
 
-def load_environment(path: str | os.PathLike) -> EnvironmentMap:
-    """An environment map from .hdr or .exr, checked for size and finite values."""
+def load_environment(path: str | os.PathLike, layout: str = "auto") -> EnvironmentMap:
+    """An environment map from .hdr or .exr, checked for size and finite values.
+
+    `layout`: latlong, angular (a light probe's disk), dual-paraboloid (front | back
+    halves), or auto (a square image with a dark disk surround is angular); probes are
+    resampled to lat-long (brdflab/lighting/probes.py)."""
+    from brdflab.lighting.probes import LAYOUTS, detect_layout, probe_to_latlong
+
     path = Path(path)
     ext = path.suffix.lower()
     if ext in (".hdr", ".pic", ".rgbe"):
@@ -227,4 +233,10 @@ def load_environment(path: str | os.PathLike) -> EnvironmentMap:
         raise BRDFLabError(f"{int(bad.sum())} texel values are NaN or Inf", path)
     if (data < 0).any():
         data = np.maximum(data, 0.0)
+    if layout not in LAYOUTS:
+        raise BRDFLabError(f"unknown map layout {layout!r}; one of {', '.join(LAYOUTS)}", path)
+    if layout == "auto":
+        layout = detect_layout(data)
+    if layout != "latlong":
+        data = probe_to_latlong(data, layout, path)
     return EnvironmentMap(data, path.stem, path)
