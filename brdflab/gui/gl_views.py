@@ -35,7 +35,7 @@ class _GLView(QOpenGLWidget):
         self._last: QPointF | None = None
         self._pending: list = []
         self.gl_inits = 0  # Qt re-runs initializeGL with a new context when the widget moves window
-        self.setMinimumSize(240, 200)
+        self.setMinimumSize(200, 160)
 
     def initializeGL(self) -> None:
         self.gl_inits += 1

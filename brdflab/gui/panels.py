@@ -495,7 +495,9 @@ class PlotsPanel(QWidget):
         from PySide6.QtGui import QImage, QPixmap
 
         h, w = rgba.shape[:2]
-        img = QImage(rgba.tobytes(), w, h, 4 * w, QImage.Format_RGBA8888).copy()
+        # copy into an image Qt owns (QImage over a Python bytes object broke None's refcount)
+        img = QImage(w, h, QImage.Format_RGBA8888)
+        np.frombuffer(img.bits(), np.uint8).reshape(h, img.bytesPerLine())[:, : 4 * w] = rgba.reshape(h, 4 * w)
         img.setDevicePixelRatio(self.devicePixelRatioF())
         self.image.setPixmap(QPixmap.fromImage(img))
         self.status.setText("")

@@ -35,10 +35,12 @@ class OrbitCamera:
         return m
 
     def projection(self, aspect: float) -> np.ndarray:
+        """Perspective whose `fov` spans the narrower side, so a tall view crops nothing more
+        than a wide one."""
         f = 1.0 / math.tan(math.radians(self.fov) / 2.0)
         near, far = 0.05, 50.0
         m = np.zeros((4, 4))
-        m[0, 0], m[1, 1] = f / aspect, f
+        m[0, 0], m[1, 1] = (f / aspect, f) if aspect >= 1.0 else (f, f * aspect)
         m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
         m[3, 2] = -1.0
         return m

@@ -54,7 +54,7 @@ class LobeViewer:
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
         self.settings = LobeSettings()
-        self.camera = OrbitCamera(yaw=35.0, pitch=25.0, distance=3.0)
+        self.camera = OrbitCamera(yaw=35.0, pitch=25.0, distance=3.7)  # a radius-1 lobe fits whole
         self._programs: dict[tuple, moderngl.Program] = {}
         self._layers: list[_Layer | None] = [None, None]
         self._mesh_level = None
