@@ -186,6 +186,15 @@ class ObjectView(_GLView):
         self._progressive = None
         self._timer.stop()
 
+    def hideEvent(self, event) -> None:
+        """A hidden (or closing) view refines nothing: its context may be on its way out."""
+        self._timer.stop()
+        super().hideEvent(event)
+
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        self._timer.start()
+
     def camera(self):
         return self.renderer.camera
 
@@ -224,7 +233,7 @@ class ObjectView(_GLView):
     def _refine(self) -> None:
         """Render more samples, outside paint events (Qt's paint-time GL state is not
         moderngl's), then ask for a repaint that only displays the image."""
-        if self.ctx is None or self.blank or getattr(self.renderer, "material", None) is None:
+        if self.ctx is None or self.blank or not self.isVisible() or getattr(self.renderer, "material", None) is None:
             return
         w, h = self.pixel_size()
         self.makeCurrent()

@@ -602,6 +602,7 @@ class MainWindow(QMainWindow):
             self._thread.wait(5000)
         self.editor.shutdown()
         self.plots.shutdown()
+        self.object_view._timer.stop()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState())
         event.accept()
