@@ -398,7 +398,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("sources", nargs="+", help="measured data or XML files, or folders of them")
     p.add_argument("--lobes", action="append", required=True,
                    help="a lobe set, e.g. Lambertian,BlinnPhong; repeat for several")
-    p.add_argument("--metric", default="L2", help="L2, cosL2 or Ngan")
+    p.add_argument("--metric", default=DEFAULT_METRIC, help=f"L2, cosL2 or Ngan (default {DEFAULT_METRIC}, as for fit)")
     p.add_argument("--combination", choices=["linear", "fixed"], default="linear")
     p.add_argument("--max-iterations", type=int, default=200)
     p.add_argument("--out", required=True, help="folder for the results table, the charts and fits/*.xml")
