@@ -17,6 +17,10 @@ from PySide6.QtCore import QObject, QTimer, Signal
 _NOTHING = object()
 
 
+def _worker_pool() -> ProcessPoolExecutor:
+    return ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+
+
 class LatestOnly(QObject):
     """Runs `fn(arg)` in a worker process for the latest `request(arg)`; emits `done(result)`
     or `failed(message)` on the GUI thread."""
@@ -45,11 +49,11 @@ class LatestOnly(QObject):
 
     def _submit(self, arg: Any) -> None:
         if self._pool is None:
-            self._pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+            self._pool = _worker_pool()
         try:
             self._future = self._pool.submit(self._fn, arg)
         except BrokenProcessPool:  # the worker died (killed, out of memory): start a new one once
-            self._pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+            self._pool = _worker_pool()
             self._future = self._pool.submit(self._fn, arg)
         self._poll.start()
 

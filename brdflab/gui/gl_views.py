@@ -234,6 +234,7 @@ class ObjectView(_GLView):
         """Render more samples, outside paint events (Qt's paint-time GL state is not
         moderngl's), then ask for a repaint that only displays the image."""
         if self.ctx is None or self.blank or not self.isVisible() or getattr(self.renderer, "material", None) is None:
+            self._timer.stop()  # nothing to refine: a 0 ms timer would spin the GUI thread
             return
         w, h = self.pixel_size()
         self.makeCurrent()
