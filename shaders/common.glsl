@@ -103,3 +103,11 @@ float precise_acos(float x) {
     float r = sqrt(1.0 - a) * p;
     return x < 0.0 ? PI - r : r;
 }
+
+// Lat-long lookup of a world direction (+Y up; u = 0.5 looks along −Z), the map turned by
+// `rotation` radians about +Y: the object's lighting and the view's background agree.
+vec2 env_uv(vec3 d, float rotation) {
+    float c = cos(rotation), s = sin(rotation);
+    d = vec3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+    return vec2(0.5 + atan(d.x, -d.z) / (2.0 * PI), precise_acos(clamp(d.y, -1.0, 1.0)) / PI);
+}

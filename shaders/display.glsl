@@ -1,4 +1,5 @@
 // Shows an accumulated float image: divide by the sample count, expose, tone map, sRGB.
+// Where no surface was drawn: the environment map seen through the camera, or a flat colour.
 #ifdef VERTEX
 out vec2 v_uv;
 void main() {
@@ -13,11 +14,26 @@ uniform float u_scale;      // 2^exposure / samples
 uniform bool u_reinhard;
 uniform float u_gamma;      // 0: the sRGB curve; otherwise x^(1/gamma)
 uniform vec3 u_background;
+uniform bool u_show_env;
+uniform sampler2D u_env;
+uniform float u_env_rotation;
+uniform float u_env_scale;  // 2^exposure
+uniform mat4 u_inverse_view_projection;
+uniform vec3 u_camera_position;
 out vec4 frag;
 void main() {
     vec4 c = texture(u_image, v_uv);
-    if (c.a <= 0.0) { frag = vec4(u_background, 1.0); return; }
-    vec3 x = max(c.rgb * u_scale, 0.0);
+    vec3 x;
+    if (c.a > 0.0) {
+        x = max(c.rgb * u_scale, 0.0);
+    } else if (u_show_env) {
+        vec4 p = u_inverse_view_projection * vec4(2.0 * v_uv - 1.0, 1.0, 1.0);
+        vec3 d = normalize(p.xyz / p.w - u_camera_position);
+        x = max(textureLod(u_env, env_uv(d, u_env_rotation), 0.0).rgb * u_env_scale, 0.0);
+    } else {
+        frag = vec4(u_background, 1.0);
+        return;
+    }
     if (u_reinhard) x = x / (1.0 + x);
     x = clamp(x, 0.0, 1.0);
     vec3 srgb = mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), x));

@@ -25,11 +25,7 @@ uniform int u_sample_begin;
 uniform int u_sample_end;
 uniform float u_set_size;         // samples in the whole set (for the filter footprint)
 
-vec2 env_uv(vec3 d) {
-    float c = cos(u_env_rotation), s = sin(u_env_rotation);
-    d = vec3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
-    return vec2(0.5 + atan(d.x, -d.z) / (2.0 * PI), precise_acos(d.y) / PI);
-}
+vec2 env_uv(vec3 d) { return env_uv(d, u_env_rotation); }
 
 void main() {
 #ifdef GEOMETRY_REFERENCE

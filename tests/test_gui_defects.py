@@ -19,15 +19,21 @@ def lit_pixels(img: np.ndarray) -> int:
     return int((rgb.max(axis=1) > 60).sum())
 
 
-def test_floating_the_lobe_viewer_keeps_the_lobe_and_survives_edits(window, qtbot):
-    """Floating the dock re-parents the viewer into a new window: Qt re-creates its GL
-    context, which once emptied the viewer and crashed the next edit."""
-    dock = window._docks["Lobe viewer"]
+def test_moving_the_lobe_viewer_to_another_window_keeps_the_lobe_and_survives_edits(window, qtbot):
+    """A view moved to another window (what floating a dock did) gets a new GL context from
+    Qt: that once emptied the viewer and crashed the next edit."""
+    from PySide6.QtWidgets import QWidget
+
     view = window.lobe_view
     qtbot.waitUntil(lambda: lit_pixels(lobe_image(window)) > 2000, timeout=10000)
     inits = view.gl_inits
-    dock.setFloating(True)
-    dock.resize(700, 600)
+    own_window = QWidget()
+    qtbot.addWidget(own_window)
+    view.setParent(own_window)
+    own_window.resize(700, 600)
+    view.resize(700, 600)
+    own_window.show()
+    view.show()
     qtbot.waitUntil(lambda: view.gl_inits > inits and view.ctx is not None, timeout=10000)
     qtbot.wait(300)
     layer = view.viewer._layers[0]
@@ -36,7 +42,8 @@ def test_floating_the_lobe_viewer_keeps_the_lobe_and_survives_edits(window, qtbo
         window.editor.parameter_edited.emit(1, "Exponent", value)
         qtbot.wait(50)
     qtbot.waitUntil(lambda: lit_pixels(lobe_image(window)) > 2000, timeout=10000)
-    dock.setFloating(False)
+    window.views.insertWidget(0, view)  # and back into the main window
+    view.show()
     qtbot.wait(300)
     window.editor.parameter_edited.emit(1, "Exponent", 20.0)
     qtbot.waitUntil(lambda: view.ctx is not None and lit_pixels(lobe_image(window)) > 2000, timeout=10000)

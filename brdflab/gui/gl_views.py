@@ -277,7 +277,9 @@ class ObjectView(_GLView):
             if not self.blank and not self._timer.isActive():
                 self._timer.start()
             return
-        self.display.draw(self._progressive, self.exposure, self.reinhard, gamma=self.gamma)
+        lit_by_map = self._progressive.settings.mode in ("fis", "sh")
+        self.display.draw(self._progressive, self.exposure, self.reinhard, gamma=self.gamma,
+                          environment=self.renderer if lit_by_map else None)
 
     def resizeGL(self, w: int, h: int) -> None:
         if self._progressive is not None:

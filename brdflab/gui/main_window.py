@@ -6,9 +6,10 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
+from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
 from PySide6.QtGui import QAction, QKeySequence, QUndoCommand, QUndoStack
-from PySide6.QtWidgets import QDockWidget, QFileDialog, QMainWindow, QMessageBox, QProgressBar, QPushButton
+from PySide6.QtWidgets import (QDockWidget, QFileDialog, QLabel, QMainWindow, QMessageBox, QProgressBar, QPushButton,
+                               QScrollArea, QSplitter, QVBoxLayout, QWidget)
 
 from brdflab.gui.export_dialog import export_dialog
 
@@ -22,13 +23,37 @@ from brdflab.io.mesh import default_mesh, load_mesh
 from brdflab.io.resources import data_dir
 from brdflab.fitting.samples import samples_of
 from brdflab.workspace import OPEN_FILTER, Workspace
-from brdflab.io.xmlio import to_bytes
+from brdflab.io.xmlio import atomic_write, to_bytes
 from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.panels import FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView
 
+LAYOUT_VERSION = 2  # the lobe viewer became the central view: older saved layouts do not apply
+CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
+<table cellspacing=4>
+<tr><td><b>Lobe viewer</b></td><td></td></tr>
+<tr><td>drag (left button)</td><td>orbit the camera</td></tr>
+<tr><td>wheel</td><td>zoom</td></tr>
+<tr><td>right-drag or Shift + drag</td><td>move the incident direction (θi, φi)</td></tr>
+<tr><td><b>Object view</b></td><td></td></tr>
+<tr><td>drag (left button)</td><td>orbit the camera</td></tr>
+<tr><td>wheel</td><td>zoom</td></tr>
+<tr><td><b>Parameters</b></td><td>drag a slider or type a value and press Enter; Ctrl+Z / Ctrl+Shift+Z undo and redo</td></tr>
+<tr><td><b>Fitting</b></td><td>Ctrl+F fits, Esc stops (the best result so far is kept)</td></tr>
+<tr><td><b>Files</b></td><td>Ctrl+O open, Ctrl+S save, drop a material, mesh or map on the window</td></tr>
+<tr><td><b>Layout</b></td><td>drag the bar between the two views; View → Reset layout</td></tr>
+</table>"""
 DEFAULT_MESH = "meshes/spot.obj"
 DEFAULT_ENV = "envmaps/venice_sunset_1k.hdr"
 MAX_RECENT = 8
+
+
+def _scrolling(widget: QWidget) -> QScrollArea:
+    """A panel in a scroll area: a dock may then be smaller than its contents (small screens)."""
+    area = QScrollArea()
+    area.setWidgetResizable(True)
+    area.setFrameShape(QScrollArea.NoFrame)
+    area.setWidget(widget)
+    return area
 
 
 class ReplaceMaterial(QUndoCommand):
@@ -99,6 +124,7 @@ class MainWindow(QMainWindow):
         super().__init__()
         self.settings = settings or QSettings()
         self.resize(1500, 950)
+        self.setMinimumSize(800, 560)  # fits a 1366 × 768 laptop with room for its panel
         self.setAcceptDrops(True)
         self.undo_stack = QUndoStack(self)
         self.undo_stack.cleanChanged.connect(self._clean_changed)
@@ -129,24 +155,49 @@ class MainWindow(QMainWindow):
         self.fitting = FittingPanel()
         self.plots = PlotsPanel()
         self.xml = XmlView()
-        self.setCentralWidget(self.object_view)
+        # the lobe viewer is the central, largest view (as in BRDFLab), the object view beside it
+        self.views = QSplitter(Qt.Horizontal)
+        self.views.setObjectName("views")
+        self.views.addWidget(self.lobe_view)
+        self.views.addWidget(self.object_view)
+        self.views.setChildrenCollapsible(False)
+        self.views.setStretchFactor(0, 3)
+        self.views.setStretchFactor(1, 2)
+        self.warnings = QLabel(wordWrap=True, textFormat=Qt.RichText, visible=False)
+        self.warnings.setObjectName("warnings")
+        self.warnings.setStyleSheet("QLabel#warnings { background: #5a4210; color: #ffe9b0; padding: 4px; }")
+        central = QWidget()
+        column = QVBoxLayout(central)
+        column.setContentsMargins(0, 0, 0, 0)
+        column.setSpacing(0)
+        column.addWidget(self.warnings)
+        column.addWidget(self.views, 1)
+        self.setCentralWidget(central)
         self._docks = {}
         for name, widget, area in (
             ("Material", self.editor, Qt.LeftDockWidgetArea),
-            ("Lobe viewer", self.lobe_view, Qt.RightDockWidgetArea),
-            ("Lobe options", self.lobe_controls, Qt.RightDockWidgetArea),
+            ("Lobe options", self.lobe_controls, Qt.LeftDockWidgetArea),
             ("Object view options", self.object_controls, Qt.LeftDockWidgetArea),
-            ("Fitting", self.fitting, Qt.RightDockWidgetArea),
+            ("Fitting", self.fitting, Qt.BottomDockWidgetArea),
             ("Plots", self.plots, Qt.BottomDockWidgetArea),
             ("XML", self.xml, Qt.BottomDockWidgetArea),
         ):
             dock = QDockWidget(name, self)
             dock.setObjectName(name)
-            dock.setWidget(widget)
+            dock.setWidget(_scrolling(widget) if name not in ("Plots", "XML") else widget)
             self.addDockWidget(area, dock)
             self._docks[name] = dock
+        # left: the material over the view options; bottom: fitting beside the plots (XML a tab)
+        self.tabifyDockWidget(self._docks["Lobe options"], self._docks["Object view options"])
+        self.splitDockWidget(self._docks["Fitting"], self._docks["Plots"], Qt.Horizontal)
         self.tabifyDockWidget(self._docks["Plots"], self._docks["XML"])
+        self._docks["Lobe options"].raise_()
         self._docks["Plots"].raise_()
+        self.resizeDocks([self._docks["Material"]], [340], Qt.Horizontal)
+        self.resizeDocks([self._docks["Material"], self._docks["Lobe options"]], [330, 150], Qt.Vertical)
+        self.resizeDocks([self._docks["Fitting"], self._docks["Plots"]], [400, 900], Qt.Horizontal)
+        self.resizeDocks([self._docks["Plots"]], [250], Qt.Vertical)
+        self._default_layout = self.saveState(LAYOUT_VERSION)
 
         self._xml_timer = QTimer(self, singleShot=True, interval=150)
         self._xml_timer.timeout.connect(self._refresh_xml)
@@ -161,7 +212,12 @@ class MainWindow(QMainWindow):
         geometry = self.settings.value("geometry")
         if geometry is not None:
             self.restoreGeometry(geometry)
-            self.restoreState(self.settings.value("state"))
+            self.restoreState(self.settings.value("state"), LAYOUT_VERSION)
+            views = self.settings.value("views")
+            if views is not None:
+                self.views.restoreState(views)
+        else:
+            self._fit_screen()
         self._object_settings_changed()
         self.set_workspace(self.workspace)
 
@@ -184,6 +240,9 @@ class MainWindow(QMainWindow):
             file.addAction(action)
         export = file.addAction("E&xport…")  # the shown fit, else the material (gui/export_dialog.py)
         export.triggered.connect(lambda: export_dialog(self, self.workspace.fitted() or self.workspace.original()))
+        for text, view in (("Export lobe &image…", self.lobe_view), ("Export &object image…", self.object_view)):
+            action = file.addAction(text)
+            action.triggered.connect(lambda _=False, v=view: self.export_image_dialog(v))
         self.recent_menu = file.addMenu("Recent files")
         file.addSeparator()
         quit_action = QAction("&Quit", self)
@@ -209,7 +268,56 @@ class MainWindow(QMainWindow):
         view = self.menuBar().addMenu("&View")
         for dock in self._docks.values():
             view.addAction(dock.toggleViewAction())
+        view.addSeparator()
+        view.addAction("&Reset layout", self.reset_layout)
+        help_menu = self.menuBar().addMenu("&Help")
+        help_menu.addAction("&Mouse and keyboard", self.show_controls_help).setShortcut(QKeySequence.HelpContents)
         self._update_recent()
+
+    def _fit_screen(self) -> None:
+        """First start: the default size, shrunk to the screen's free area (a 1366 × 768 laptop)."""
+        screen = self.screen().availableGeometry() if self.screen() else None
+        if screen is not None:
+            self.resize(min(self.width(), screen.width()), min(self.height(), screen.height() - 30))
+
+    def reset_layout(self) -> None:
+        """Every panel back where it starts, the two views at their first proportions."""
+        self.restoreState(self._default_layout, LAYOUT_VERSION)
+        for dock in self._docks.values():
+            dock.setFloating(False)
+        total = sum(self.views.sizes())
+        self.views.setSizes([total * 3 // 5, total - total * 3 // 5])
+
+    def show_controls_help(self) -> None:
+        box = QMessageBox(QMessageBox.Information, "BRDFLab — controls", CONTROLS_HELP, QMessageBox.Ok, self)
+        box.setAttribute(Qt.WA_DeleteOnClose)
+        box.open()
+
+    def export_image_dialog(self, view) -> None:
+        name = "lobe" if view is self.lobe_view else "object"
+        path, _ = QFileDialog.getSaveFileName(self, f"Export {name} image", str(Path(self._folder("image")) / f"{name}.png"),
+                                              "PNG image (*.png);;JPEG image (*.jpg)")
+        if path:
+            self.export_image(view, Path(path))
+
+    def export_image(self, view, path: Path) -> bool:
+        """What the view shows, at its pixel size, saved atomically (PNG or JPEG by extension)."""
+        fmt = "JPG" if path.suffix.lower() in (".jpg", ".jpeg") else "PNG"
+        image = view.grabFramebuffer()
+        data = QByteArray()
+        buffer = QBuffer(data)
+        buffer.open(QIODevice.WriteOnly)
+        if image.isNull() or not image.save(buffer, fmt):
+            self.show_error(f"{path}: the view has no image to export")
+            return False
+        try:
+            atomic_write(path, bytes(data))
+        except OSError as e:
+            self.show_error(f"{path}: cannot write the image ({e.strerror or e})")
+            return False
+        self.settings.setValue("folders/image", str(path.parent))
+        self.statusBar().showMessage(f"Exported {path}", 5000)
+        return True
 
     def _connect(self) -> None:
         e = self.editor
@@ -367,7 +475,7 @@ class MainWindow(QMainWindow):
 
     def _push_object_source(self) -> None:
         shown = self.workspace.original()
-        if self.object_controls.show.currentText() == "fitted":
+        if self.object_controls.shown.currentText() == "fitted":
             shown = self._candidate or self.workspace.fitted() or shown
         if self.object_view.ctx is None:
             return
@@ -604,7 +712,8 @@ class MainWindow(QMainWindow):
         self.plots.shutdown()
         self.object_view._timer.stop()
         self.settings.setValue("geometry", self.saveGeometry())
-        self.settings.setValue("state", self.saveState())
+        self.settings.setValue("state", self.saveState(LAYOUT_VERSION))
+        self.settings.setValue("views", self.views.saveState())
         event.accept()
 
     def show_error(self, message: str) -> None:
@@ -653,7 +762,7 @@ class MainWindow(QMainWindow):
         self._candidate = p.material
         self.fitting.status.setText(f"{p.stage}: iteration {p.iteration}, {self._worker.options.metric} error {p.error:.6g}")
         self._push_lobe_sources()
-        if self.object_controls.show.currentText() == "fitted":
+        if self.object_controls.shown.currentText() == "fitted":
             self._push_object_source()
 
     def _end_fit(self) -> None:
@@ -692,7 +801,7 @@ class MainWindow(QMainWindow):
     def _refit(self, index: int) -> None:
         start = self.workspace.document.fittings[index].material.copy()
         f = self.fitting
-        self.start_fit([], start.combination, f.metric.currentText(), f.sample_kind.currentText(), f.size.value(), start)
+        self.start_fit([], start.combination, f.metric_box.currentText(), f.sample_kind.currentText(), f.sample_size.value(), start)
 
     def _promote(self, index: int) -> None:
         material = self.workspace.document.fittings[index].material.copy()

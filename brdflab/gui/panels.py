@@ -136,9 +136,11 @@ class MaterialEditor(QWidget):
         top.addWidget(self.combination)
         top.addWidget(QLabel("Channels"))
         top.addWidget(self.channels)
-        buttons = QHBoxLayout()
-        for w in (self.model_box, add, remove, up, down):
-            buttons.addWidget(w)
+        buttons = QGridLayout()  # two short rows: the dock stays narrow
+        buttons.addWidget(self.model_box, 0, 0, 1, 2)
+        buttons.addWidget(add, 0, 2)
+        for column, w in enumerate((remove, up, down)):
+            buttons.addWidget(w, 1, column)
         lay = QVBoxLayout(self)
         lay.addLayout(top)
         lay.addWidget(self.tree, 2)
@@ -337,8 +339,8 @@ class ObjectControls(QWidget):
         self.rotation = ParameterRow(0.0, 359.0, 0.0)
         self.light_theta = ParameterRow(0.0, 89.0, 35.0)
         self.light_phi = ParameterRow(0.0, 359.0, 40.0)
-        self.show = QComboBox()
-        self.show.addItems(["original", "fitted"])
+        self.shown = QComboBox()
+        self.shown.addItems(["original", "fitted"])
         self.reinhard = QCheckBox("Reinhard")
         mesh, env = QPushButton("Open mesh…"), QPushButton("Open environment…")
         mesh.clicked.connect(self.open_mesh.emit)
@@ -353,7 +355,7 @@ class ObjectControls(QWidget):
         form.addRow("environment rotation (°)", self.rotation)
         form.addRow("light θ (°)", self.light_theta)
         form.addRow("light φ (°)", self.light_phi)
-        form.addRow("show", self.show)
+        form.addRow("show", self.shown)
         row = QHBoxLayout()
         for w in (mesh, env, self.reinhard, self.sh_shadows):
             row.addWidget(w)
@@ -361,7 +363,7 @@ class ObjectControls(QWidget):
         self.mode.currentIndexChanged.connect(lambda _: self.changed.emit())
         self.samples.valueChanged.connect(lambda _: self.changed.emit())
         self.sh_order.valueChanged.connect(lambda _: self.changed.emit())
-        self.show.currentIndexChanged.connect(lambda _: self.changed.emit())
+        self.shown.currentIndexChanged.connect(lambda _: self.changed.emit())
         self.reinhard.toggled.connect(lambda _: self.changed.emit())
         self.gamma.valueChanged.connect(lambda _: self.changed.emit())
         self.sh_shadows.toggled.connect(lambda _: self.changed.emit())
@@ -394,13 +396,13 @@ class FittingPanel(QWidget):
                              "Lambertian,Kurt", "Lambertian,CookTorrance,CookTorrance", "Lambertian,BlinnPhong"])
         self.strategy = QComboBox()
         self.strategy.addItems(["Linear", "Fixed"])
-        self.metric = QComboBox()
-        self.metric.addItems(list(METRICS))
-        self.metric.setCurrentText(DEFAULT_METRIC)  # the core's default, the same as the command line's
-        self.metric.setToolTip(DEFAULTS_WHY)
+        self.metric_box = QComboBox()
+        self.metric_box.addItems(list(METRICS))
+        self.metric_box.setCurrentText(DEFAULT_METRIC)  # the core's default, the same as the command line's
+        self.metric_box.setToolTip(DEFAULTS_WHY)
         self.sample_kind = QComboBox()
         self.sample_kind.addItems(["all", "subset", "grid"])
-        self.size = QSpinBox(minimum=1000, maximum=2_000_000, value=50_000, singleStep=10_000)
+        self.sample_size = QSpinBox(minimum=1000, maximum=2_000_000, value=50_000, singleStep=10_000)
         self.fit_button, self.stop_button = QPushButton("Fit"), QPushButton("Stop")
         self.stop_button.setEnabled(False)
         self.refit_button, self.promote_button = QPushButton("Fit again from this"), QPushButton("Make main material")
@@ -422,10 +424,10 @@ class FittingPanel(QWidget):
         grid.addWidget(QLabel("strategy"), 4, 0)
         grid.addWidget(self.strategy, 4, 1)
         grid.addWidget(QLabel("metric"), 4, 2)
-        grid.addWidget(self.metric, 4, 3)
+        grid.addWidget(self.metric_box, 4, 3)
         grid.addWidget(QLabel("samples"), 5, 0)
         grid.addWidget(self.sample_kind, 5, 1)
-        grid.addWidget(self.size, 5, 2, 1, 2)
+        grid.addWidget(self.sample_size, 5, 2, 1, 2)
         grid.addWidget(self.fit_button, 6, 0, 1, 2)
         grid.addWidget(self.stop_button, 6, 2, 1, 2)
         grid.addWidget(self.progress, 7, 0, 1, 4)
@@ -433,8 +435,8 @@ class FittingPanel(QWidget):
 
     def _request(self) -> None:
         lobes = [s.strip() for s in self.lobes.currentText().split(",") if s.strip()]
-        self.fit_requested.emit(lobes, self.strategy.currentText(), self.metric.currentText(),
-                                self.sample_kind.currentText(), self.size.value())
+        self.fit_requested.emit(lobes, self.strategy.currentText(), self.metric_box.currentText(),
+                                self.sample_kind.currentText(), self.sample_size.value())
 
     def show_fits(self, fittings, shown: int | None) -> None:
         with QSignalBlocker(self.fits):

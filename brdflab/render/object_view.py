@@ -502,14 +502,28 @@ class Display:
         src = shader_source("display.glsl")
         self.ctx = ctx
         self.program = ctx.program(vertex_shader=GLSL_VERSION + "#define VERTEX\n" + src,
-                                   fragment_shader=GLSL_VERSION + src)
+                                   fragment_shader=GLSL_VERSION + shader_source("common.glsl") + src)
         self.vao = ctx.vertex_array(self.program, [])
 
     def draw(self, image: Progressive, exposure: float = 0.0, reinhard: bool = False,
-             background=(0.12, 0.12, 0.14), gamma: float = 0.0) -> None:
+             background=(0.12, 0.12, 0.14), gamma: float = 0.0, environment: "ObjectRenderer | None" = None) -> None:
+        """`environment`: show that renderer's map behind the object, seen through its camera
+        and turned as its lighting is (image.settings)."""
         _set_state(self.ctx, depth=False, blend=False)
         image.texture.use(0)
         _set(self.program, "u_image", 0)
+        show_env = environment is not None and environment.env_texture is not None
+        _set(self.program, "u_show_env", show_env)
+        if show_env:
+            s = image.settings
+            environment.env_texture.use(1)
+            _set(self.program, "u_env", 1)
+            _set(self.program, "u_env_rotation", math.radians(s.env_rotation))
+            _set(self.program, "u_env_scale", float(2.0**exposure))
+            camera = environment.camera
+            view_projection = camera.projection(s.width / s.height) @ camera.view()
+            self.program["u_inverse_view_projection"].write(gl_matrix(np.linalg.inv(view_projection)))
+            _set(self.program, "u_camera_position", tuple(float(x) for x in camera.position))
         _set(self.program, "u_scale", float(2.0**exposure / max(image.samples, 1)))
         _set(self.program, "u_reinhard", bool(reinhard))
         _set(self.program, "u_gamma", float(gamma))

@@ -1,0 +1,87 @@
+"""The window's layout (issue 9): the lobe viewer is the central, largest view; the window fits a
+1366 × 768 laptop; Reset layout, Export image, Help; the map behind the object."""
+
+import os
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from test_gui import window  # noqa: F401  (the fixture)
+
+pytestmark = pytest.mark.skipif(
+    not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") not in ("offscreen",),
+    reason="needs a display (CI runs the suite under xvfb-run)",
+)
+
+
+def area(widget) -> int:
+    return widget.width() * widget.height()
+
+
+def test_the_lobe_viewer_is_the_central_largest_view_and_fits_a_laptop(window, qtbot):
+    window.resize(1366, 740)
+    qtbot.waitUntil(lambda: window.width() == 1366 and window.height() == 740, timeout=5000)
+    assert window.minimumSizeHint().width() <= 1366 and window.minimumSizeHint().height() <= 740
+    assert window.centralWidget().isAncestorOf(window.lobe_view)
+    lobe = area(window.lobe_view)
+    assert lobe > area(window.object_view)
+    assert all(lobe > area(d) for d in window._docks.values() if d.isVisible())
+    window.resize(1800, 1000)  # it grows with the window
+    qtbot.waitUntil(lambda: area(window.lobe_view) > 1.3 * lobe, timeout=5000)
+
+
+def test_reset_layout_brings_every_panel_back(window, qtbot):
+    window._docks["Fitting"].close()
+    window._docks["Material"].setFloating(True)
+    window.views.setSizes([100, 900])
+    window.reset_layout()
+    qtbot.wait(100)
+    assert window._docks["Fitting"].isVisible() and not window._docks["Material"].isFloating()
+    lobe, obj = window.views.sizes()
+    assert lobe > obj
+
+
+def test_export_image_saves_what_the_view_shows(window, qtbot, tmp_path):
+    qtbot.waitUntil(lambda: window.object_view.samples_done >= 16, timeout=20000)
+    for view, name in ((window.lobe_view, "lobe.png"), (window.object_view, "object.jpg")):
+        path = tmp_path / name
+        assert window.export_image(view, path)
+        img = np.asarray(Image.open(path).convert("RGB"))
+        assert img.shape[:2] == (view.grabFramebuffer().height(), view.grabFramebuffer().width())
+        assert img.std() > 5  # a picture, not a blank
+    assert not window.export_image(window.lobe_view, tmp_path / "missing" / "x.png")  # an error, not a crash
+    assert "cannot write" in window.statusBar().currentMessage()
+
+
+def test_help_lists_the_mouse_and_keyboard_controls(window, qtbot):
+    from PySide6.QtWidgets import QMessageBox
+
+    window.show_controls_help()
+    box = window.findChild(QMessageBox)
+    assert box is not None and "wheel" in box.text() and "incident" in box.text()
+    box.close()
+
+
+def view_rgb(view) -> np.ndarray:
+    from PySide6.QtGui import QImage
+
+    img = view.grabFramebuffer().convertToFormat(QImage.Format_RGB32)  # bytes B, G, R, A
+    return np.frombuffer(img.constBits(), np.uint8, img.sizeInBytes()).reshape(img.height(), img.width(), 4)[..., 2::-1]
+
+
+def test_the_environment_map_is_the_object_views_background(window, qtbot):
+    window.object_controls.mode.setCurrentText("fis")
+    qtbot.waitUntil(lambda: window.object_view.samples_done >= 16, timeout=20000)
+    rgb = view_rgb(window.object_view)
+    top_rows = rgb[: rgb.shape[0] // 10].reshape(-1, 3).astype(int)  # sky, above the object
+    assert np.abs(top_rows - [31, 31, 36]).max() > 20  # not the flat grey of "no map"
+    assert top_rows.std(axis=0).max() > 2  # an image, not one colour
+    window.object_controls.mode.setCurrentText("point")
+    view = window.object_view
+    qtbot.waitUntil(lambda: view._progressive is not None and view._progressive.settings.mode == "point"
+                    and view.samples_done >= 1, timeout=20000)
+    qtbot.wait(300)
+    rgb = view_rgb(window.object_view)
+    top = np.median(rgb[: rgb.shape[0] // 10].reshape(-1, 3), axis=0)
+    assert np.abs(top - [31, 31, 36]).max() <= 2  # a point light has no map to show
