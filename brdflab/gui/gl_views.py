@@ -6,6 +6,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import moderngl
+import numpy as np
 from PySide6.QtCore import QPointF, Qt, QTimer, Signal
 from PySide6.QtGui import QOpenGLContext, QSurfaceFormat
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
@@ -22,6 +23,16 @@ def set_default_surface_format() -> None:
     fmt.setProfile(QSurfaceFormat.CoreProfile)
     fmt.setDepthBufferSize(24)
     QSurfaceFormat.setDefaultFormat(fmt)
+
+
+def clamped_fraction(rgba_bytes: bytes) -> float:
+    """Of the pixels a surface covers (alpha > 0), the fraction with a negative channel: SH
+    ringing, which the display clamps to black."""
+    rgba = np.frombuffer(rgba_bytes, np.float32).reshape(-1, 4)
+    covered = rgba[:, 3] > 0
+    if not covered.any():
+        return 0.0
+    return float((rgba[covered, :3].min(axis=1) < 0).mean())
 
 
 class _GLView(QOpenGLWidget):
@@ -158,6 +169,7 @@ class ObjectView(_GLView):
 
     STEP_BUDGET_S = 0.025  # one refinement step may hold the GUI thread this long
     busy = Signal(str)  # a long preparation started ("" when it is over)
+    ringing = Signal(float)  # SH mode, image complete: the fraction of object pixels clamped at 0
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
@@ -256,6 +268,8 @@ class ObjectView(_GLView):
                 spent = time.perf_counter() - began
                 self._step_samples = int(max(1, min(256, n * self.STEP_BUDGET_S / max(spent, 1e-4))))
                 self._timer.start()
+                if self.settings.mode == "sh" and p.samples >= target:
+                    self.ringing.emit(clamped_fraction(p.texture.read()))
             else:
                 self._timer.stop()
         except BRDFLabError as e:

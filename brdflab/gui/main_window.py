@@ -25,7 +25,10 @@ from brdflab.fitting.samples import samples_of
 from brdflab.workspace import OPEN_FILTER, Workspace
 from brdflab.io.xmlio import atomic_write, to_bytes
 from brdflab.gui.gl_views import LobeView, ObjectView
-from brdflab.gui.panels import FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView
+from brdflab.gui.background import LatestOnly
+from brdflab.gui.panels import (FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView,
+                                energy_summaries)
+from brdflab.material.diagnostics import energy_words, parameters_at_bounds
 
 LAYOUT_VERSION = 2  # the lobe viewer became the central view: older saved layouts do not apply
 CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
@@ -198,6 +201,10 @@ class MainWindow(QMainWindow):
         self.resizeDocks([self._docks["Fitting"], self._docks["Plots"]], [400, 900], Qt.Horizontal)
         self.resizeDocks([self._docks["Plots"]], [250], Qt.Vertical)
         self._default_layout = self.saveState(LAYOUT_VERSION)
+        self._warnings: dict[str, str] = {}  # what is wrong, by topic, shown above the views
+        self._fit_energy: list | None = None
+        self._fits_energy_job = LatestOnly(energy_summaries, self)
+        self._fits_energy_job.done.connect(self._fits_energy_known)
 
         self._xml_timer = QTimer(self, singleShot=True, interval=150)
         self._xml_timer.timeout.connect(self._refresh_xml)
@@ -337,6 +344,8 @@ class MainWindow(QMainWindow):
         self.object_controls.open_environment.connect(self.open_environment_dialog)
         for view in (self.lobe_view, self.object_view):
             view.failed.connect(self.show_error)
+        e.energy_known.connect(self._editable_energy_known)
+        self.object_view.ringing.connect(self._sh_ringing)
         self.object_view.busy.connect(lambda text: self.statusBar().showMessage(text, 0 if text else 1))
         f = self.fitting
         f.fit_requested.connect(self.start_fit)
@@ -378,13 +387,59 @@ class MainWindow(QMainWindow):
         self._push_lobe_sources()
         self._push_object_source()
         self._refresh_text()
+        self._check_bounds()
 
     def fittings_changed(self) -> None:
         ws = self.workspace
+        self._fit_energy = None
         self.fitting.show_fits(ws.document.fittings, ws.shown_fit)
+        self._fits_energy_job.request([f.material for f in ws.document.fittings])
+        self._check_bounds()
         self._push_lobe_sources()
         self._push_object_source()
         self._refresh_text()
+
+    # --- what is wrong, where the user looks ----------------------------------------------------
+    def set_warning(self, topic: str, text: str | None) -> None:
+        if text:
+            self._warnings[topic] = text
+        else:
+            self._warnings.pop(topic, None)
+        self.warnings.setText("<br>".join(f"⚠ {t}" for t in self._warnings.values()))
+        self.warnings.setVisible(bool(self._warnings))
+
+    def _editable_energy_known(self, summary) -> None:
+        whose = "This material" if self.workspace.analytic is not None else "The initial guess"
+        words = energy_words(*summary)
+        self.set_warning("energy", f"{whose}: {words}" if words else None)
+
+    def _fits_energy_known(self, summaries: list) -> None:
+        fittings = self.workspace.document.fittings
+        if len(summaries) != len(fittings):
+            return  # an answer about fits that have changed since: a newer request is on its way
+        self._fit_energy = summaries
+        self.fitting.show_fits(fittings, self.workspace.shown_fit, summaries)
+        bad = [f"fit {k}: {energy_words(*s)}" for k, s in enumerate(summaries) if s is not None and not s[0]]
+        self.set_warning("fits", "Stored " + "; ".join(bad) if bad else None)
+
+    def _check_bounds(self) -> None:
+        ws = self.workspace
+        found = []
+        if ws.fitted() is not None:
+            found += [f"fit {ws.shown_fit}, " + b for b in parameters_at_bounds(ws.fitted())]
+        if ws.analytic is not None:
+            found += parameters_at_bounds(ws.analytic)
+        more = f" and {len(found) - 3} more" if len(found) > 3 else ""
+        self.set_warning("bounds", "At a bound: " + "; ".join(found[:3]) + more if found else None)
+
+    @Slot(float)
+    def _sh_ringing(self, fraction: float) -> None:
+        self.set_warning("sh", None if fraction <= 0 else
+                         f"SH ringing: {fraction:.1%} of the object's pixels came out negative and were clamped "
+                         "to black (raise the SH order or use the fis mode)")
+
+    def _map_note(self, env) -> None:
+        self.set_warning("map", f"Environment {env.name}: {env.note}" if getattr(env, "note", "") else None)
 
     def _refresh_text(self) -> None:
         self._update_title()
@@ -636,6 +691,7 @@ class MainWindow(QMainWindow):
         def apply(env) -> None:
             self.object_view.when_ready(lambda: self.object_view.renderer.set_environment(env))
             self.object_view.restart()
+            self._map_note(env)
             self.statusBar().showMessage(f"environment {path}", 5000)
 
         self._load("environment", path, load_environment, apply)
@@ -710,6 +766,7 @@ class MainWindow(QMainWindow):
             self._thread.wait(5000)
         self.editor.shutdown()
         self.plots.shutdown()
+        self._fits_energy_job.shutdown()
         self.object_view._timer.stop()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState(LAYOUT_VERSION))

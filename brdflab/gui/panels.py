@@ -99,6 +99,7 @@ class MaterialEditor(QWidget):
     lobe_moved = Signal(int, int)
     combination_changed = Signal(str)
     channels_changed = Signal(int)
+    energy_known = Signal(object)  # (conserves, max albedo per channel) of the shown material
 
     def __init__(self) -> None:
         super().__init__()
@@ -207,6 +208,7 @@ class MaterialEditor(QWidget):
             self._energy_job.request(None)
             self.energy.setText("No lobes: the material reflects nothing.")
             self.energy.setStyleSheet("")
+            self.energy_known.emit((True, [0.0]))
             return
         if not self._energy_job.busy:
             self.energy.setStyleSheet("color: #707070")
@@ -215,6 +217,7 @@ class MaterialEditor(QWidget):
     def _show_energy(self, summary) -> None:
         if summary is None:
             return
+        self.energy_known.emit(summary)
         conserves, max_albedo = summary
         if conserves:
             self.energy.setText("Energy: albedo ≤ 1 for every view (max " + ", ".join(f"{a:.3f}" for a in max_albedo) + ")")
@@ -270,6 +273,11 @@ def energy_summary(material: AnalyticMaterial | None):
         return None
     report = energy_check(material)
     return bool(report.conserves), [float(a) for a in report.max_albedo]
+
+
+def energy_summaries(materials: list[AnalyticMaterial]) -> list:
+    """energy_summary of each (the stored fits) — run in a worker process by the window."""
+    return [energy_summary(m) for m in materials]
 
 
 class LobeControls(QWidget):
@@ -438,14 +446,18 @@ class FittingPanel(QWidget):
         self.fit_requested.emit(lobes, self.strategy.currentText(), self.metric_box.currentText(),
                                 self.sample_kind.currentText(), self.sample_size.value())
 
-    def show_fits(self, fittings, shown: int | None) -> None:
+    def show_fits(self, fittings, shown: int | None, energy: list | None = None) -> None:
+        """The stored fits; `energy` (one summary per fit, when known) marks those that do not
+        conserve energy."""
         with QSignalBlocker(self.fits):
             self.fits.clear()
             for k, f in enumerate(fittings):
                 lobes = "+".join(dict.fromkeys(l.model.name for l in f.material.lobes))
                 err = "—" if f.error is None else f"{f.error:.5g}"
                 metric = f.statistics.get("metric", "")
-                self.fits.addItem(f"{k}: {lobes}  {metric} {err}")
+                summary = energy[k] if energy is not None and k < len(energy) else None
+                mark = f"  ⚠ albedo {max(summary[1]):.3g}" if summary is not None and not summary[0] else ""
+                self.fits.addItem(f"{k}: {lobes}  {metric} {err}{mark}")
             if shown is not None and shown < len(fittings):
                 self.fits.setCurrentRow(shown)
 

@@ -24,6 +24,7 @@ class EnvironmentMap:
     data: np.ndarray
     name: str = "environment"
     path: Path | None = None
+    note: str = ""  # a doubt about the file's layout, for the user to see
 
     @property
     def width(self) -> int:
@@ -239,4 +240,13 @@ def load_environment(path: str | os.PathLike, layout: str = "auto") -> Environme
         layout = detect_layout(data)
     if layout != "latlong":
         data = probe_to_latlong(data, layout, path)
-    return EnvironmentMap(data, path.stem, path)
+    return EnvironmentMap(data, path.stem, path, latlong_doubt(data.shape))
+
+
+def latlong_doubt(shape: tuple) -> str:
+    """Why a map read as lat-long may not be one: lat-long maps are twice as wide as tall."""
+    h, w = shape[:2]
+    if abs(w / h - 2.0) <= 0.02 * 2.0:
+        return ""
+    return (f"{w}×{h} texels is not the 2:1 shape of a lat-long map (a cross or a probe?): it is shown "
+            "stretched; convert it, or open an angular or dual-paraboloid probe with its layout")
