@@ -20,12 +20,33 @@ uniform float u_env_rotation;
 uniform float u_env_scale;  // 2^exposure
 uniform mat4 u_inverse_view_projection;
 uniform vec3 u_camera_position;
+// comparing two images of the same scene (original | fit): 0 off, 1 split at u_split, 2 difference
+uniform int u_compare;
+uniform sampler2D u_image_b;
+uniform float u_scale_b;
+uniform float u_split;
 out vec4 frag;
+
+vec3 heat(float t) {  // 0 black → red → yellow → white at 1
+    return clamp(vec3(3.0 * t, 3.0 * t - 1.0, 3.0 * t - 2.0), 0.0, 1.0);
+}
+
 void main() {
     vec4 c = texture(u_image, v_uv);
+    float scale = u_scale;
+    if (u_compare == 1) {
+        if (abs(v_uv.x - u_split) * float(textureSize(u_image, 0).x) < 1.0) { frag = vec4(1.0); return; }
+        if (v_uv.x > u_split) { c = texture(u_image_b, v_uv); scale = u_scale_b; }
+    } else if (u_compare == 2 && c.a > 0.0) {
+        const vec3 LUM = vec3(0.2126, 0.7152, 0.0722);
+        float a = max(dot(c.rgb * u_scale, LUM), 0.0);
+        float b = max(dot(texture(u_image_b, v_uv).rgb * u_scale_b, LUM), 0.0);
+        frag = vec4(heat(abs(a - b) / max(max(a, b), 1e-6)), 1.0);  // relative difference, 1 = 100 %
+        return;
+    }
     vec3 x;
     if (c.a > 0.0) {
-        x = max(c.rgb * u_scale, 0.0);
+        x = max(c.rgb * scale, 0.0);
     } else if (u_show_env) {
         vec4 p = u_inverse_view_projection * vec4(2.0 * v_uv - 1.0, 1.0, 1.0);
         vec3 d = normalize(p.xyz / p.w - u_camera_position);

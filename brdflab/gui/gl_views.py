@@ -182,6 +182,13 @@ class ObjectView(_GLView):
         self._progressive = None
         self._step_samples = 1  # adapted so that a step costs about STEP_BUDGET_S
         self.blank = False  # nothing to show (a material without lobes): draw the background
+        # comparing: a second renderer with the same scene and camera shows `compare_source`
+        self.compare = "off"  # or "split" (original | fit) or "difference"
+        self.compare_source = None
+        self.split = 0.5
+        self._renderer_b = None
+        self._scene_b: tuple | None = None  # the scene _renderer_b was built for
+        self._progressive_b = None
         self._timer = QTimer(self)
         self._timer.setInterval(0)
         self._timer.timeout.connect(self._refine)
@@ -195,7 +202,8 @@ class ObjectView(_GLView):
             self._timer.start()
 
     def context_lost(self) -> None:
-        self._progressive = None
+        self._progressive = self._progressive_b = self._renderer_b = None
+        self._scene_b = None
         self._timer.stop()
 
     def hideEvent(self, event) -> None:
@@ -212,11 +220,31 @@ class ObjectView(_GLView):
 
     def restart(self) -> None:
         """Something changed: throw the accumulated samples away."""
-        if self._progressive is not None and self.ctx is not None:
-            self.when_ready(self._progressive.release)
-        self._progressive = None
+        for image in (self._progressive, self._progressive_b):
+            if image is not None and self.ctx is not None:
+                self.when_ready(image.release)
+        self._progressive = self._progressive_b = None
         self._timer.start()
         self.update()
+
+    @property
+    def comparing(self) -> bool:
+        """Two images at once: in the fis and point modes (an SH table per source would stall)."""
+        return self.compare != "off" and self.compare_source is not None and self.settings.mode != "sh"
+
+    def _second_renderer(self) -> ObjectRenderer:
+        """The compared source's renderer: the main renderer's scene (mesh, map, SH settings),
+        its very camera, rebuilt when that scene changes (context current)."""
+        r = self.renderer
+        scene = (id(r.mesh), id(r.environment), r.sh_order, r.sh_window, r.sh_shadows, r.sh_variant)
+        if self._renderer_b is None:
+            self._renderer_b = ObjectRenderer(self.ctx)
+        if scene != self._scene_b:
+            self._renderer_b.adopt(r)
+            self._scene_b = scene
+        if self._renderer_b.source is not self.compare_source:
+            self._renderer_b.set_source(self.compare_source)
+        return self._renderer_b
 
     view_changed = restart
 
@@ -254,16 +282,20 @@ class ObjectView(_GLView):
             if self._table_pending():
                 return
             if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
-                if self._progressive is not None:
-                    self._progressive.release()
-                s = self.settings
-                self._progressive = self.renderer.start_progressive(RenderSettings(**{**s.__dict__, "width": w, "height": h}))
+                for image in (self._progressive, self._progressive_b):
+                    if image is not None:
+                        image.release()
+                settings = RenderSettings(**{**self.settings.__dict__, "width": w, "height": h})
+                self._progressive = self.renderer.start_progressive(settings)
+                self._progressive_b = self._second_renderer().start_progressive(settings) if self.comparing else None
             p = self._progressive
             target = self.settings.samples if self.settings.mode == "fis" else 1
             if p.samples < target:
                 n = min(self._step_samples, target - p.samples)
                 began = time.perf_counter()
-                p.step(n)
+                for image in (p, self._progressive_b):
+                    if image is not None:
+                        image.step(n)
                 self.ctx.finish()  # llvmpipe renders lazily: time the real work
                 spent = time.perf_counter() - began
                 self._step_samples = int(max(1, min(256, n * self.STEP_BUDGET_S / max(spent, 1e-4))))
@@ -292,11 +324,14 @@ class ObjectView(_GLView):
                 self._timer.start()
             return
         lit_by_map = self._progressive.settings.mode in ("fis", "sh")
+        other = self._progressive_b if self.comparing and self._progressive_b is not None else None
         self.display.draw(self._progressive, self.exposure, self.reinhard, gamma=self.gamma,
-                          environment=self.renderer if lit_by_map else None)
+                          environment=self.renderer if lit_by_map else None, other=other,
+                          compare=self.compare, split=self.split)
 
     def resizeGL(self, w: int, h: int) -> None:
-        if self._progressive is not None:
-            self._progressive.release()  # the context is current during resizeGL
-        self._progressive = None
+        for image in (self._progressive, self._progressive_b):
+            if image is not None:
+                image.release()  # the context is current during resizeGL
+        self._progressive = self._progressive_b = None
         self._timer.start()

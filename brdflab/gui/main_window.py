@@ -26,8 +26,8 @@ from brdflab.workspace import OPEN_FILTER, Workspace
 from brdflab.io.xmlio import atomic_write, to_bytes
 from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.background import LatestOnly
-from brdflab.gui.panels import (FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView,
-                                energy_summaries)
+from brdflab.gui.panels import (SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel,
+                                XmlView, energy_summaries)
 from brdflab.material.diagnostics import energy_words, parameters_at_bounds
 
 LAYOUT_VERSION = 2  # the lobe viewer became the central view: older saved layouts do not apply
@@ -149,6 +149,7 @@ class MainWindow(QMainWindow):
         self.locate_button.clicked.connect(self.locate_data_dialog)
         self.statusBar().addPermanentWidget(self.locate_button)
         self._fit_owner: Workspace | None = None  # the document a running fit belongs to
+        self._fit_history: list[tuple[int, float]] = []  # (iteration, error) of the running or last fit
 
         self.lobe_view = LobeView()
         self.object_view = ObjectView()
@@ -368,6 +369,8 @@ class MainWindow(QMainWindow):
     def set_workspace(self, workspace: Workspace) -> None:
         if self._worker is not None and workspace is not self._fit_owner:
             self._worker.cancel.set()  # the running fit belongs to the document being closed
+        if workspace is not self.workspace:
+            self._fit_history = []
         self.workspace = workspace
         self.locate_button.setVisible(workspace.data_missing)
         self._unsaved_at_clean = workspace.dirty
@@ -460,7 +463,8 @@ class MainWindow(QMainWindow):
     def _refresh_plots(self) -> None:
         try:
             self.plots.show_sources(self.workspace.original(), self._candidate or self.workspace.fitted(),
-                                    self.lobe_view.viewer.settings.theta_i if self.lobe_view.ctx else 30.0)
+                                    self.lobe_view.viewer.settings.theta_i if self.lobe_view.ctx else 30.0,
+                                    self._fit_history)
         except BRDFLabError as e:
             self.show_error(str(e))
 
@@ -530,8 +534,12 @@ class MainWindow(QMainWindow):
 
     def _push_object_source(self) -> None:
         shown = self.workspace.original()
-        if self.object_controls.shown.currentText() == "fitted":
-            shown = self._candidate or self.workspace.fitted() or shown
+        choice = self.object_controls.shown.currentText()
+        fit = self._candidate or self.workspace.fitted()
+        if choice == "fitted":
+            shown = fit or shown
+        self.object_view.compare = SHOWN[choice] if fit is not None and shown is not None else "off"
+        self.object_view.compare_source = fit
         if self.object_view.ctx is None:
             return
         self.object_view.blank = shown is None or (isinstance(shown, ws_ops.AnalyticMaterial) and not shown.lobes)
@@ -800,6 +808,7 @@ class MainWindow(QMainWindow):
             return
         options = FitOptions(metric=metric)
         self._fit_owner = self.workspace
+        self._fit_history = []
         self._worker = FitWorker(start, samples, options)
         self._thread = QThread(self)
         self._worker.moveToThread(self._thread)
@@ -817,9 +826,12 @@ class MainWindow(QMainWindow):
 
     def _fit_progress(self, p: FitProgress) -> None:
         self._candidate = p.material
+        self._fit_history.append((p.iteration, p.error))
+        if not self._plot_timer.isActive():  # the convergence plot follows the fit, coalesced
+            self._plot_timer.start()
         self.fitting.status.setText(f"{p.stage}: iteration {p.iteration}, {self._worker.options.metric} error {p.error:.6g}")
         self._push_lobe_sources()
-        if self.object_controls.shown.currentText() == "fitted":
+        if self.object_controls.shown.currentText() != "original":
             self._push_object_source()
 
     def _end_fit(self) -> None:

@@ -20,6 +20,7 @@ from PySide6.QtWidgets import (
     QPlainTextEdit,
     QProgressBar,
     QPushButton,
+    QScrollArea,
     QSizePolicy,
     QSlider,
     QSpinBox,
@@ -326,6 +327,9 @@ class LobeControls(QWidget):
         settings.translucent_fit = self.translucent.isChecked()
 
 
+SHOWN = {"original": "off", "fitted": "off", "original | fit": "split", "difference": "difference"}
+
+
 class ObjectControls(QWidget):
     """Lighting mode, samples, exposure, environment rotation, which material is shown."""
 
@@ -348,7 +352,10 @@ class ObjectControls(QWidget):
         self.light_theta = ParameterRow(0.0, 89.0, 35.0)
         self.light_phi = ParameterRow(0.0, 359.0, 40.0)
         self.shown = QComboBox()
-        self.shown.addItems(["original", "fitted"])
+        self.shown.addItems(list(SHOWN))
+        self.shown.setToolTip("What the object shows: the original, the shown fit, both split down the middle "
+                              "(original left, fit right), or their relative difference (black 0, white 100 %; "
+                              "fis and point modes)")
         self.reinhard = QCheckBox("Reinhard")
         mesh, env = QPushButton("Open mesh…"), QPushButton("Open environment…")
         mesh.clicked.connect(self.open_mesh.emit)
@@ -473,31 +480,40 @@ class PlotsPanel(QWidget):
     The figure is computed and drawn (matplotlib, Agg) in a worker process and shown as an
     image, so neither the evaluation nor matplotlib's layout ever blocks the window."""
 
+    MIN_ROW_HEIGHT = 210  # pixels a row of plots needs to stay readable
+
     def __init__(self) -> None:
         super().__init__()
         self.image = QLabel(alignment=Qt.AlignCenter)
-        self.image.setMinimumSize(200, 120)
-        self.image.setSizePolicy(QSizePolicy.Ignored, QSizePolicy.Ignored)
+        self.scroll = QScrollArea()  # two rows of plots (a fit to compare) scroll rather than shrink
+        self.scroll.setWidget(self.image)
+        self.scroll.setMinimumSize(200, 120)
+        self.scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)
         self.status = QLabel("")
         self.status.setStyleSheet("color: #707070")
         lay = QVBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
-        lay.addWidget(self.image, 1)
+        lay.addWidget(self.scroll, 1)
         lay.addWidget(self.status)
         self._job = LatestOnly(draw_plots, self)
         self._job.done.connect(self._show)
         self._job.failed.connect(lambda m: self.status.setText(f"plots failed: {m}"))
         self._last: tuple | None = None
 
-    def show_sources(self, original, fitted, theta_i_deg: float) -> None:
-        self._last = (original, fitted, theta_i_deg)
+    def show_sources(self, original, fitted, theta_i_deg: float, history: list | None = None) -> None:
+        """`history`: (iteration, error) of the running or last fit, for its convergence plot."""
+        self._last = (original, fitted, theta_i_deg, list(history or []))
         self._request()
 
     def _request(self) -> None:
         if self._last is None:
             return
         ratio = self.devicePixelRatioF()
-        size = (max(200, int(self.image.width() * ratio)), max(120, int(self.image.height() * ratio)))
+        viewport = self.scroll.viewport()
+        rows = 2 if self._last[0] is not None and self._last[1] is not None else 1
+        width = max(200, viewport.width() - (self.scroll.verticalScrollBar().sizeHint().width() if rows == 2 else 0))
+        height = max(120, viewport.height(), self.MIN_ROW_HEIGHT * rows)
+        size = (int(width * ratio), int(height * ratio))
         self.status.setText("updating…")
         self._job.request((*self._last, size))
 
@@ -514,75 +530,134 @@ class PlotsPanel(QWidget):
         np.frombuffer(img.bits(), np.uint8).reshape(h, img.bytesPerLine())[:, : 4 * w] = rgba.reshape(h, 4 * w)
         img.setDevicePixelRatio(self.devicePixelRatioF())
         self.image.setPixmap(QPixmap.fromImage(img))
+        self.image.resize(round(w / self.devicePixelRatioF()), round(h / self.devicePixelRatioF()))
         self.status.setText("")
 
     def shutdown(self) -> None:
         self._job.shutdown()
 
 
+def _luminance(f: np.ndarray) -> np.ndarray:
+    f = np.asarray(f)[:, :3]
+    weights = np.array([0.2126, 0.7152, 0.0722])[: f.shape[1]]
+    return f @ weights / weights.sum() if f.shape[1] > 1 else f[:, 0]
+
+
+def _slice(source) -> np.ndarray:
+    """Luminance on the θh × θd plane at φd = 90° (MERL's θh spacing), 90 × 90."""
+    from brdflab.geometry.halfdiff import from_half_diff
+
+    th = ((np.arange(90) + 0.5) / 90.0) ** 2 * np.pi / 2
+    td = (np.arange(90) + 0.5) / 90.0 * np.pi / 2
+    TH, TD = np.meshgrid(th, td, indexing="ij")
+    a, b = from_half_diff(TH.ravel(), 0.0, TD.ravel(), np.full(TH.size, np.pi / 2))
+    return _luminance(source.evaluate(a, b)).reshape(90, 90)
+
+
+def _slice_axes(ax, title: str) -> None:
+    ax.set_xlabel("θh bin (MERL spacing)", fontsize=7)
+    ax.set_ylabel("θd (°)", fontsize=7)
+    ax.set_title(title, fontsize=8)
+    ax.tick_params(labelsize=6)
+
+
 def draw_plots(request) -> np.ndarray:
-    """The three plots as an RGBA image of the requested pixel size (runs in a worker)."""
+    """The plots as an RGBA image of the requested pixel size (runs in a worker).
+
+    Always: the plane of incidence (polar), directional albedo and the θh × θd slice. With a
+    fit: the fit's slice and the error slice (log10 fit / original) beside the original's,
+    and the running fit's convergence (error per iteration)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
-    from brdflab.geometry.halfdiff import from_half_diff
     from brdflab.geometry.vec import spherical_to_cartesian
     from brdflab.material.albedo import directional_albedo
 
-    original, fitted, theta_i_deg, (width, height) = request
+    original, fitted, theta_i_deg, history, (width, height) = request
+    compare = original is not None and fitted is not None
     dpi = 100
     figure = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, layout="constrained")
     canvas = FigureCanvasAgg(figure)
-    ax1 = figure.add_subplot(1, 3, 1, projection="polar")
-    ax2 = figure.add_subplot(1, 3, 2)
-    ax3 = figure.add_subplot(1, 3, 3)
+    rows = 2 if compare else 1
+    ax_polar = figure.add_subplot(rows, 3, 1, projection="polar")
+    ax_albedo = figure.add_subplot(rows, 3, 2)
+    ax_third = figure.add_subplot(rows, 3, 3)
+    pairs = [(s, label, style) for s, label, style in ((original, "original", "-"), (fitted, "fit", "--"))
+             if s is not None]
+
     t = np.radians(np.linspace(-89.5, 89.5, 361))
     wo = spherical_to_cartesian(np.abs(t), np.where(t < 0, np.pi, 0.0))
     wi = np.broadcast_to(spherical_to_cartesian(np.radians(theta_i_deg), np.pi), wo.shape)
-    lum = np.array([0.2126, 0.7152, 0.0722])
+    for source, label, style in pairs:
+        ax_polar.plot(t, np.cbrt(np.maximum(_luminance(source.evaluate(wi, wo)), 0)), style, label=label)
+    ax_polar.set_thetamin(-90)
+    ax_polar.set_thetamax(90)
+    ax_polar.set_theta_zero_location("N")
+    ax_polar.yaxis.set_major_locator(MaxNLocator(3))  # few radial labels: they never overlap
+    ax_polar.set_rlabel_position(-80)
+    ax_polar.tick_params(labelsize=6)
+    ax_polar.set_title(f"plane of incidence, θi = {theta_i_deg:.0f}° (∛f)", fontsize=8)
+    if ax_polar.lines:
+        ax_polar.legend(fontsize=6, loc="upper left", bbox_to_anchor=(-0.35, 1.0), frameon=False)
 
-    def luminance(f: np.ndarray) -> np.ndarray:
-        f = np.asarray(f)[:, :3]
-        return f @ lum[: f.shape[1]] / lum[: f.shape[1]].sum() if f.shape[1] > 1 else f[:, 0]
-
-    for source, label, style in ((original, "original", "-"), (fitted, "fitted", "--")):
-        if source is None:
-            continue
-        ax1.plot(t, np.cbrt(np.maximum(luminance(source.evaluate(wi, wo)), 0)), style, label=label)
-    ax1.set_thetamin(-90)
-    ax1.set_thetamax(90)
-    ax1.set_theta_zero_location("N")
-    ax1.tick_params(labelsize=7)
-    ax1.set_title(f"plane of incidence, θi = {theta_i_deg:.0f}° (∛f)", fontsize=8)
-    if ax1.lines:
-        figure.legend(handles=ax1.lines, fontsize=7, loc="outside lower left", ncols=2)
-    source = original if original is not None else fitted
-    if source is not None:
-        th = ((np.arange(90) + 0.5) / 90.0) ** 2 * np.pi / 2
-        td = (np.arange(90) + 0.5) / 90.0 * np.pi / 2
-        TH, TD = np.meshgrid(th, td, indexing="ij")
-        a, b = from_half_diff(TH.ravel(), 0.0, TD.ravel(), np.full(TH.size, np.pi / 2))
-        img = luminance(source.evaluate(a, b)).reshape(90, 90)
-        shown = ax2.imshow(np.log10(np.maximum(img, 1e-4)).T, origin="lower", aspect="auto", extent=(0, 90, 0, 90))
-        figure.colorbar(shown, ax=ax2, label="log10 f (1/sr)").ax.tick_params(labelsize=7)
-        ax2.set_xlabel("θh bin (MERL spacing)", fontsize=8)
-        ax2.set_ylabel("θd (°)", fontsize=8)
-        ax2.set_title("log10 f, φd = 90°", fontsize=8)
-        ax2.tick_params(labelsize=7)
     theta = np.radians(np.linspace(0, 85, 18))
     views = spherical_to_cartesian(theta, 0.0)
-    for src, label, style in ((original, "original", "-"), (fitted, "fitted", "--")):
-        if src is not None and (not isinstance(src, AnalyticMaterial) or src.lobes):
+    for src, label, style in pairs:
+        if not isinstance(src, AnalyticMaterial) or src.lobes:
             albedo = directional_albedo(src, views, samples_log2=9) if isinstance(src, AnalyticMaterial) \
                 else _sampled_albedo(src, views)
-            ax3.plot(np.degrees(theta), luminance(albedo), style, label=label)
-    ax3.axhline(1.0, color="grey", lw=0.8, ls=":")
-    ax3.set_xlabel("θo (°)", fontsize=8)
-    ax3.set_ylabel("albedo (luminance)", fontsize=8)
-    ax3.set_title("directional albedo", fontsize=8)
-    ax3.tick_params(labelsize=7)
+            ax_albedo.plot(np.degrees(theta), _luminance(albedo), style, label=label)
+    ax_albedo.axhline(1.0, color="grey", lw=0.8, ls=":")
+    ax_albedo.set_xlabel("θo (°)", fontsize=7)
+    ax_albedo.set_ylabel("albedo (luminance)", fontsize=7)
+    ax_albedo.set_title("directional albedo (1: dotted)", fontsize=8)
+    ax_albedo.tick_params(labelsize=6)
+
+    if compare:
+        _convergence(ax_third, history)
+        a, b = _slice(original), _slice(fitted)
+        logs = [np.log10(np.maximum(x, 1e-4)) for x in (a, b)]
+        lo, hi = min(l.min() for l in logs), max(l.max() for l in logs)
+        for k, (img, title) in enumerate(zip(logs, ("log10 f, original", "log10 f, fit"))):
+            ax = figure.add_subplot(2, 3, 4 + k)
+            shown = ax.imshow(img.T, origin="lower", aspect="auto", extent=(0, 90, 0, 90), vmin=lo, vmax=hi)
+            _slice_axes(ax, title + ", φd = 90°")
+        _colorbar(figure, shown, figure.axes[-2:], "log10 f (1/sr)")
+        ax = figure.add_subplot(2, 3, 6)
+        ratio = np.log10(np.maximum(b, 1e-4) / np.maximum(a, 1e-4))
+        shown = ax.imshow(ratio.T, origin="lower", aspect="auto", extent=(0, 90, 0, 90), cmap="RdBu_r", vmin=-1, vmax=1)
+        _slice_axes(ax, "error: log10 (fit / original)")
+        _colorbar(figure, shown, ax, "decades (red: fit too bright)")
+    else:
+        source = original if original is not None else fitted
+        if source is not None:
+            shown = ax_third.imshow(np.log10(np.maximum(_slice(source), 1e-4)).T, origin="lower", aspect="auto",
+                                    extent=(0, 90, 0, 90))
+            _colorbar(figure, shown, ax_third, "log10 f (1/sr)")
+            _slice_axes(ax_third, "log10 f, φd = 90°")
     canvas.draw()
     return np.asarray(canvas.buffer_rgba()).copy()
+
+
+def _colorbar(figure, shown, ax, label: str) -> None:
+    bar = figure.colorbar(shown, ax=ax)
+    bar.set_label(label, fontsize=7)
+    bar.ax.tick_params(labelsize=6)
+
+
+def _convergence(ax, history: list) -> None:
+    """Error per iteration of the running (or last) fit, log scale."""
+    if history:
+        it, err = np.array([h[0] for h in history]), np.array([h[1] for h in history])
+        ax.semilogy(np.arange(len(err)), np.maximum(err, 1e-300), ".-", ms=3)
+        ax.set_xlabel(f"progress reports (starting points, then LM; iteration {it[-1]})", fontsize=7)
+    else:
+        ax.text(0.5, 0.5, "fit to see its convergence", ha="center", va="center", fontsize=7, color="grey",
+                transform=ax.transAxes)
+    ax.set_ylabel("error", fontsize=7)
+    ax.set_title("fit convergence", fontsize=8)
+    ax.tick_params(labelsize=6)
 
 
 def _sampled_albedo(source, views: np.ndarray, n: int = 4096) -> np.ndarray:

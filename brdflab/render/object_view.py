@@ -506,12 +506,21 @@ class Display:
         self.vao = ctx.vertex_array(self.program, [])
 
     def draw(self, image: Progressive, exposure: float = 0.0, reinhard: bool = False,
-             background=(0.12, 0.12, 0.14), gamma: float = 0.0, environment: "ObjectRenderer | None" = None) -> None:
+             background=(0.12, 0.12, 0.14), gamma: float = 0.0, environment: "ObjectRenderer | None" = None,
+             other: "Progressive | None" = None, compare: str = "split", split: float = 0.5) -> None:
         """`environment`: show that renderer's map behind the object, seen through its camera
-        and turned as its lighting is (image.settings)."""
+        and turned as its lighting is (image.settings). `other`: a second image of the same
+        scene (a fit beside its original), shown right of `split` ("split") or as the relative
+        luminance difference in false colour ("difference": black 0, white 100 %)."""
         _set_state(self.ctx, depth=False, blend=False)
         image.texture.use(0)
         _set(self.program, "u_image", 0)
+        _set(self.program, "u_compare", 0 if other is None else {"split": 1, "difference": 2}[compare])
+        if other is not None:
+            other.texture.use(2)
+            _set(self.program, "u_image_b", 2)
+            _set(self.program, "u_scale_b", float(2.0**exposure / max(other.samples, 1)))
+            _set(self.program, "u_split", float(split))
         show_env = environment is not None and environment.env_texture is not None
         _set(self.program, "u_show_env", show_env)
         if show_env:
