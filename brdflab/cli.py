@@ -87,14 +87,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     source = load_source(Path(args.material), fitting=args.fitting)
     values = source.evaluate(wi, wo)
     out = Path(args.out)
-    from brdflab.io.xmlio import atomic_write
+    from brdflab.io.atomic import atomic_write
 
     buf = io.BytesIO()
     np.save(buf, values)
-    try:
-        atomic_write(out, buf.getvalue())
-    except OSError as e:
-        raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
+    atomic_write(out, buf.getvalue())
     payload = {"out": str(out), "pairs": int(values.shape[0]), "channels": int(values.shape[1])}
     _emit(args, payload, f"wrote {values.shape[0]} × {values.shape[1]} values to {out}")
     return 0
@@ -252,12 +249,13 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from brdflab.study.bench import run
+    from brdflab.io.atomic import ensure_folder
+    from brdflab.study.bench import run, stderr_progress
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise BRDFLabError("--out must be a folder", out)
-    result = run(out, quick=args.quick)
+    out = ensure_folder(args.out)  # before minutes of measuring
+    result = run(out, quick=args.quick, progress=stderr_progress)
+    for row in result["sh"]["skipped"]:
+        print(f"brdflab bench: warning: skipped {row['row']}: {row['why']}", file=sys.stderr)
     fis = result["render"]["fis"]
     lines = [f"{r['material']:<12} {r['samples']:>4} samples {r['ms']:8.1f} ms  {100 * r['relative_rmse']:6.2f} %" for r in fis]
     _emit(args, {"out": str(out), "files": ["bench.json", *result["charts"]], "render": result["render"]},

@@ -1,0 +1,106 @@
+"""Atomic saves: every file brdflab writes goes through here.
+
+A unique temporary file in the target folder is written, fsync'ed and renamed over the
+target (os.replace), so a crash, a full disk or a second writer never leaves a half-written
+or unreadable file: readers see the old file or the new one. Problems with the target
+(missing folder, read-only folder, a file where the folder should be, a full disk) become
+one-line BRDFLabErrors that name the file.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from brdflab.errors import BRDFLabError
+
+
+def _problem(error: OSError, path: Path) -> str:
+    """What went wrong, in the user's terms."""
+    folder = path.parent if str(path.parent) else Path(".")
+    if error.errno == errno.ENOENT:
+        return f"cannot write: the folder {folder} does not exist"
+    if error.errno == errno.ENOTDIR:
+        return f"cannot write: a part of {folder} is a file, not a folder"
+    if error.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return f"cannot write: the folder {folder} is read-only (no permission to create files there)"
+    if error.errno in (errno.ENOSPC, errno.EDQUOT):
+        return "cannot write: the disk is full"
+    if error.errno == errno.EISDIR:
+        return "cannot write: it is a folder"
+    return f"cannot write: {error.strerror or error}"
+
+
+def _new_file_mode(path: Path) -> int:
+    """Keep an existing file's permissions; a new file gets the usual ones (mkstemp's are private)."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """A unique temporary path in `path`'s folder for a writer that needs a file name
+    (OpenEXR, savefig); when the block ends it is fsync'ed and renamed to `path`.
+    On any error the temporary file is removed and the target is left as it was."""
+    path = Path(path)
+    if path.is_dir():
+        raise BRDFLabError("cannot write: it is a folder", path)
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix, dir=path.parent)
+    except OSError as e:
+        raise BRDFLabError(_problem(e, path), path) from None
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        with open(tmp, "rb+") as f:
+            os.fsync(f.fileno())
+        os.chmod(tmp, _new_file_mode(path))
+        os.replace(tmp, path)
+    except BaseException as e:
+        tmp.unlink(missing_ok=True)
+        if isinstance(e, OSError):
+            raise BRDFLabError(_problem(e, path), path) from None
+        raise
+
+
+def atomic_write(path: str | os.PathLike, data: bytes) -> None:
+    """Write `data` to `path` atomically (see the module's docstring)."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Fail now, in one line, if `path` could not be saved later (before a long computation):
+    its folder must exist, be a folder and take a new file."""
+    try:
+        with atomic_path(path):
+            raise _Probe
+    except _Probe:
+        pass
+
+
+class _Probe(Exception):
+    """Ends a probing atomic_path block without saving anything."""
+
+
+def ensure_folder(folder: str | os.PathLike) -> Path:
+    """Create `folder` (and its parents) if needed and check that files can be saved in it."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise BRDFLabError("cannot write: it is a file, not a folder", folder) from None
+    except OSError as e:
+        raise BRDFLabError(_problem(e, folder), folder) from None
+    check_writable(folder / ".brdflab-probe")
+    return folder
