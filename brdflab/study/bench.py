@@ -43,6 +43,15 @@ BENCH_MATERIALS = {
 }
 
 
+def measured_slice() -> tuple[Path | None, str]:
+    """The measured slice the SH benchmark tabulates, or None and why it is missing."""
+    shared = shared_data_dir()
+    if shared is None:
+        return None, "no shared data: set BRDFLAB_SHARED, or put shared/data next to the checkout"
+    path = shared.joinpath(*DATA_SLICE)
+    return (path, "") if path.is_file() else (None, f"not found: {path}")
+
+
 def _timed(fn, repeat: int) -> float:
     fn()  # warm-up (program compilation)
     best = np.inf
@@ -136,12 +145,10 @@ def sh_numbers(quick: bool, progress: Progress = _quiet) -> dict:
         t0 = time.perf_counter()
         brdf_table(material, order)
         out["tables"].append({"source": "analytic (Lambertian + Blinn-Phong)", "order": order, "seconds": time.perf_counter() - t0})
-    shared = shared_data_dir()
-    slice_path = shared.joinpath(*DATA_SLICE) if shared else None
-    if slice_path is None or not slice_path.is_file():
-        where = str(slice_path) if slice_path else "no shared data (set BRDFLAB_SHARED or put shared/ next to the checkout)"
-        out["skipped"].append({"row": "SH tables of a measured material", "why": f"not found: {where}"})
-        progress(f"skipped the measured SH table rows: not found: {where}")
+    slice_path, why = measured_slice()
+    if slice_path is None:
+        out["skipped"].append({"row": "SH tables of a measured material", "why": why})
+        progress(f"skipped the measured SH table rows: {why}")
     else:
         progress(f"building SH tables of the measured slice {slice_path.name}")
         table = read_slice(slice_path).to_full()
