@@ -232,7 +232,8 @@ def _orbit_coverage(mesh, width: int, height: int) -> np.ndarray:
     renderer = ObjectRenderer(create_context())
     renderer.set_source(load(data_dir("materials") / "lambertian.xml").material)
     renderer.set_mesh(mesh)
-    image = renderer.render(RenderSettings("point", width, height, light=(0.2, 0.5, 1.0), reference_view=False))
+    headlight = tuple(float(x) for x in renderer.camera.position)  # lights every visible point
+    image = renderer.render(RenderSettings("point", width, height, light=headlight, reference_view=False))
     return image.sum(axis=2) > 0
 
 
