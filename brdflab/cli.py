@@ -79,6 +79,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     from brdflab.sources.files import load_source
 
+    from brdflab.io.atomic import atomic_write, check_writable
+
+    check_writable(args.out)
     pairs_path = Path(args.pairs)
     try:
         pairs = np.load(pairs_path, allow_pickle=False)
@@ -101,8 +104,6 @@ def cmd_eval(args: argparse.Namespace) -> int:
     source = load_source(Path(args.material), fitting=args.fitting)
     values = source.evaluate(wi, wo)
     out = Path(args.out)
-    from brdflab.io.atomic import atomic_write
-
     buf = io.BytesIO()
     np.save(buf, values)
     atomic_write(out, buf.getvalue())
@@ -116,6 +117,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     import threading
 
     from brdflab.fitting.lm import FitOptions, fit
+    from brdflab.io.atomic import check_writable
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
     from brdflab.fitting.samples import samples_of
     from brdflab.sources.files import load_source
@@ -123,6 +125,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     if not args.time_limit > 0:
         raise BRDFLabError(f"--time-limit {args.time_limit:g}: must be a positive number of seconds")
+    if args.out:
+        check_writable(args.out)  # a bad --out fails before the fit, not after it
     source_path = Path(args.source)
     source = load_source(source_path, fitting=args.fitting)
     lobes = [s.strip() for s in args.lobes.split(",") if s.strip()] if args.lobes else None
@@ -339,10 +343,12 @@ def display_problem(env) -> str | None:
 
 def cmd_export(args: argparse.Namespace) -> int:
     from brdflab.export import export_source
+    from brdflab.io.atomic import check_writable
     from brdflab.sources.files import load_source
 
-    source = load_source(Path(args.source), fitting=args.fitting)
     out = Path(args.out)
+    check_writable(out)
+    source = load_source(Path(args.source), fitting=args.fitting)
     try:
         export_source(source, args.format, out, origin=Path(args.source))
     except OSError as e:
@@ -451,10 +457,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a lobe set, e.g. Lambertian,BlinnPhong; repeat for several")
     p.add_argument("--metric", default=DEFAULT_METRIC, help="L2, cosL2 or Ngan (as for fit)")
     p.add_argument("--combination", choices=["linear", "fixed"], default="linear", help="how lobes combine")
-    p.add_argument("--max-iterations", type=int_in(1, 1_000_000), default=200, help="Levenberg–Marquardt iterations")
+    p.add_argument("--max-iterations", type=int, default=200, help="Levenberg–Marquardt iterations")
     p.add_argument("--out", required=True, help="folder for the results table, the charts and fits/*.xml")
     p.add_argument("--scheduler", help="address of an existing Dask scheduler, e.g. tcp://host:8786")
-    p.add_argument("--workers", type=int_in(1, 4096), default=None,
+    p.add_argument("--workers", type=int, default=None,
                    help="worker processes of the local cluster (default: one per core)")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_batch)

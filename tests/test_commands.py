@@ -135,6 +135,15 @@ def test_render_into_a_bad_folder_is_a_one_line_error(tmp_path, capsys, read_onl
         assert str(out) in err
 
 
+def test_eval_fit_export_into_a_bad_folder_fail_before_the_work(tmp_path, capsys, read_only_folder):
+    pairs = tmp_path / "pairs.npy"
+    np.save(pairs, np.array([[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]]))
+    for argv in (["eval", "example:fig2", "--pairs", str(pairs), "--out"], ["fit", "example:fig2", "--lobes", "Lambertian", "--out"],
+                 ["export", "example:fig2", "--format", "glsl", "--out"]):
+        for out in (tmp_path / "missing" / "o", read_only_folder / "o"):
+            assert str(out) in one_line_error(capsys, main([*argv, str(out)]))
+
+
 def test_bench_into_a_bad_folder_is_a_one_line_error(tmp_path, capsys, read_only_folder):
     blocker = tmp_path / "a-file"
     blocker.write_text("x")

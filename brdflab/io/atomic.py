@@ -20,19 +20,17 @@ from brdflab.errors import BRDFLabError
 
 
 def _problem(error: OSError, path: Path) -> str:
-    """What went wrong, in the user's terms."""
+    """What went wrong, in the user's terms, with the system's own words after it."""
     folder = path.parent if str(path.parent) else Path(".")
-    if error.errno == errno.ENOENT:
-        return f"cannot write: the folder {folder} does not exist"
-    if error.errno == errno.ENOTDIR:
-        return f"cannot write: a part of {folder} is a file, not a folder"
-    if error.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
-        return f"cannot write: the folder {folder} is read-only (no permission to create files there)"
-    if error.errno in (errno.ENOSPC, errno.EDQUOT):
-        return "cannot write: the disk is full"
-    if error.errno == errno.EISDIR:
-        return "cannot write: it is a folder"
-    return f"cannot write: {error.strerror or error}"
+    said = {errno.ENOENT: f"the folder {folder} does not exist",
+            errno.ENOTDIR: f"a part of {folder} is a file, not a folder",
+            errno.EACCES: f"the folder {folder} is read-only (no permission to create files there)",
+            errno.EPERM: f"the folder {folder} is read-only (no permission to create files there)",
+            errno.EROFS: f"the folder {folder} is on a read-only file system",
+            errno.ENOSPC: "the disk is full", errno.EDQUOT: "the disk quota is exhausted",
+            errno.EISDIR: "it is a folder"}.get(error.errno)
+    system = error.strerror or str(error)
+    return f"cannot write: {said} ({system})" if said else f"cannot write: {system}"
 
 
 def _new_file_mode(path: Path) -> int:
