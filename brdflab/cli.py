@@ -77,9 +77,8 @@ def cmd_examples(args: argparse.Namespace) -> int:
 def cmd_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from brdflab.sources.files import load_source
-
     from brdflab.io.atomic import atomic_write, check_writable
+    from brdflab.sources.files import load_source
 
     check_writable(args.out)
     pairs_path = Path(args.pairs)
@@ -217,7 +216,6 @@ def cmd_render(args: argparse.Namespace) -> int:
     from brdflab.io.resources import data_dir
     from brdflab.sources.files import load_source
     from brdflab.lighting.tonemap import write_png
-
     from brdflab.io.atomic import check_writable
 
     out = Path(args.out)
