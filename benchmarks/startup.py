@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -63,24 +64,30 @@ def imports(stderr: str) -> tuple[float, dict[str, float]]:
 def measure(tree: Path, runs: int) -> dict:
     rows = {}
     for label, argv in COMMANDS.items():
-        walls = []
+        walls, cpus = [], []
         for _ in range(runs):
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
             t0 = time.perf_counter()
             done = _run(tree, argv)
             walls.append(time.perf_counter() - t0)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
             if done.returncode != 0:
                 raise SystemExit(f"{label} failed: {done.stderr.strip()}")
         total, heavy = imports(_run(tree, argv, importtime=True).stderr)
-        rows[label] = {"wall_s": statistics.median(walls), "imports_s": total, "heavy": heavy}
+        rows[label] = {"wall_s": statistics.median(walls), "cpu_s": statistics.median(cpus), "imports_s": total,
+                       "heavy": heavy}
     return rows
 
 
 def markdown(result: dict) -> str:
     trees = [t for t in ("before", "now") if t in result]
-    head = "| command | " + " | ".join(f"{t}: wall s | {t}: imports s" for t in trees) + " | heavy imports now |"
-    lines = [head, "|" + "---|" * (1 + 2 * len(trees) + 1)]
+    head = ("| command | " + " | ".join(f"{t}: wall s | {t}: CPU s | {t}: imports s" for t in trees)
+            + " | heavy imports now (s) |")
+    lines = [head, "|" + "---|" * (1 + 3 * len(trees) + 1)]
     for label in COMMANDS:
-        cells = [f"{result[t][label]['wall_s']:.3f} | {result[t][label]['imports_s']:.3f}" for t in trees]
+        cells = [f"{result[t][label]['wall_s']:.3f} | {result[t][label]['cpu_s']:.3f} | {result[t][label]['imports_s']:.3f}"
+                 for t in trees]
         heavy = ", ".join(f"{k} {v:.2f}" for k, v in sorted(result["now"][label]["heavy"].items(), key=lambda kv: -kv[1]))
         lines.append(f"| `{label}` | " + " | ".join(cells) + f" | {heavy or '—'} |")
     return "\n".join(lines)
@@ -92,7 +99,7 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=7)
     parser.add_argument("--json", type=Path, help="write the numbers here")
     args = parser.parse_args()
-    result = {"python": sys.version.split()[0], "runs": args.runs}
+    result = {"python": sys.version.split()[0], "runs": args.runs, "load_average": os.getloadavg()}
     if args.before:
         result["before"] = measure(args.before, args.runs)
     result["now"] = measure(ROOT, args.runs)
@@ -103,8 +110,11 @@ def main() -> None:
         page = ROOT / "docs" / "startup.md"
         page.write_text("# Start-up cost of the commands\n\nWritten by `python benchmarks/startup.py"
                         f"{' --before TREE' if args.before else ''} --json {args.json}` (median wall time of "
-                        f"{args.runs} runs; imports: the sum of `python -X importtime`'s top-level entries; "
-                        "heavy: cumulative import seconds of the big libraries).\n\n" + table + "\n")
+                        f"{args.runs} runs, and its CPU time, user + system, which a busy machine disturbs less; "
+                        "imports: the sum of `python -X importtime`'s top-level entries; heavy: cumulative "
+                        "import seconds of the big libraries). Load average while measuring: "
+                        f"{', '.join(f'{x:.1f}' for x in result['load_average'])} on "
+                        f"{os.cpu_count()} cores.\n\n" + table + "\n")
 
 
 if __name__ == "__main__":
