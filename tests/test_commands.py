@@ -292,6 +292,38 @@ def test_a_slice_fit_does_not_import_scipy():
     assert not _imported_by(argv) & {"scipy", "matplotlib", "trimesh", "moderngl", "PySide6", "pandas"}
 
 
+def test_numpy_sobol_points_are_a_scrambled_sobol_net():
+    """The SciPy-free points: the unscrambled set is SciPy's Sobol' set, and the scrambled
+    one keeps the (0, m, 2)-net property (one point in every elementary box of area 2^-m)."""
+    from scipy.stats import qmc
+
+    from brdflab.geometry.sobol import BITS, _generator_matrices, scrambled_sobol
+
+    m = 10
+    digits = (np.arange(2**m)[:, None] >> np.arange(m)) & 1
+    plain = np.stack([((digits @ C.T) % 2) @ 0.5 ** np.arange(1, BITS + 1) for C in _generator_matrices(m)], axis=1)
+    assert sorted(map(tuple, plain)) == sorted(map(tuple, qmc.Sobol(2, scramble=False).random_base2(m)))
+    points = scrambled_sobol(m, seed=7)
+    assert not np.array_equal(np.sort(points, axis=0), np.sort(plain, axis=0))
+    for a in range(m + 1):
+        box = np.floor(points[:, 0] * 2**a).astype(int) * 2 ** (m - a) + np.floor(points[:, 1] * 2 ** (m - a)).astype(int)
+        assert np.bincount(box, minlength=2**m).max() == 1, a
+
+
+def test_numpy_nnls_matches_scipy(rng):
+    from scipy.optimize import nnls as scipy_nnls
+
+    from brdflab.fitting.nnls import nnls
+
+    for _ in range(300):
+        n = int(rng.integers(1, 7))
+        A = rng.normal(size=(n + int(rng.integers(0, 3)), n)) * np.exp(2 * rng.normal(size=n))
+        y = rng.normal(size=A.shape[0])
+        ours, theirs = nnls(A, y), scipy_nnls(A, y)[0]
+        assert np.all(ours >= 0)
+        assert np.linalg.norm(A @ ours - y) <= np.linalg.norm(A @ theirs - y) + 1e-9 * (1 + np.linalg.norm(y))
+
+
 # --- examples, help, version, UTF-8 --------------------------------------------------------------
 
 def test_examples_are_reachable_by_name_from_any_folder(tmp_path):
