@@ -1,33 +1,35 @@
-"""The command line: `brdflab [gui|models|info|eval|fit|batch|render|simulate|bench] ...`.
+"""The command line: `brdflab [gui|models|examples|info|eval|fit|batch|render|simulate|export|bench] ...`.
 
 Every command prints one JSON object as the last line of stdout with --json. Bad
 input raises BRDFLabError, which becomes a one-line message on stderr and exit
-status 2 (never a traceback).
+status 2 (never a traceback). Heavy libraries (NumPy, SciPy, OpenGL …) are imported by
+the commands that use them, so `brdflab --help` and `brdflab models` start at once.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import io
 import json
+import math
+import os
 import sys
 import time
 from pathlib import Path
-
-import numpy as np
 
 from brdflab.errors import BRDFLabError
 
 
 def _emit(args: argparse.Namespace, payload: dict, human: str) -> None:
     if getattr(args, "json", False):
-        print(json.dumps(payload, default=_json_default))
+        print(json.dumps(payload, default=_json_default, ensure_ascii=False))
     else:
         print(human)
 
 
 def _json_default(o):
+    import numpy as np
+
     if isinstance(o, np.generic):
         return o.item()
     if isinstance(o, np.ndarray):
@@ -58,13 +60,27 @@ def cmd_info(args: argparse.Namespace) -> int:
     info = describe_file(Path(args.file))
     for w in info.get("warnings", []):
         print(f"{args.file}: warning: {w}", file=sys.stderr)
-    _emit(args, info, json.dumps(info, indent=2, default=_json_default))
+    _emit(args, info, json.dumps(info, indent=2, default=_json_default, ensure_ascii=False))
+    return 0
+
+
+def cmd_examples(args: argparse.Namespace) -> int:
+    from brdflab.io.resources import EXAMPLE_PREFIX, example_names
+
+    examples = [{"name": EXAMPLE_PREFIX + name, "file": path.name, "path": str(path)}
+                for name, path in sorted(example_names().items())]
+    lines = [f"{e['name']:<28} {e['file']}" for e in examples]
+    _emit(args, {"examples": examples}, "\n".join(lines))
     return 0
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from brdflab.io.atomic import atomic_write, check_writable
     from brdflab.sources.files import load_source
 
+    check_writable(args.out)
     pairs_path = Path(args.pairs)
     try:
         pairs = np.load(pairs_path, allow_pickle=False)
@@ -87,14 +103,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
     source = load_source(Path(args.material), fitting=args.fitting)
     values = source.evaluate(wi, wo)
     out = Path(args.out)
-    from brdflab.io.xmlio import atomic_write
-
     buf = io.BytesIO()
     np.save(buf, values)
-    try:
-        atomic_write(out, buf.getvalue())
-    except OSError as e:
-        raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
+    atomic_write(out, buf.getvalue())
     payload = {"out": str(out), "pairs": int(values.shape[0]), "channels": int(values.shape[1])}
     _emit(args, payload, f"wrote {values.shape[0]} × {values.shape[1]} values to {out}")
     return 0
@@ -105,6 +116,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     import threading
 
     from brdflab.fitting.lm import FitOptions, fit
+    from brdflab.io.atomic import check_writable
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
     from brdflab.fitting.samples import samples_of
     from brdflab.sources.files import load_source
@@ -112,6 +124,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
     if not args.time_limit > 0:
         raise BRDFLabError(f"--time-limit {args.time_limit:g}: must be a positive number of seconds")
+    if args.out:
+        check_writable(args.out)  # a bad --out fails before the fit, not after it
     source_path = Path(args.source)
     source = load_source(source_path, fitting=args.fitting)
     lobes = [s.strip() for s in args.lobes.split(",") if s.strip()] if args.lobes else None
@@ -189,7 +203,7 @@ def _vector(text: str, n: int, what: str) -> tuple[float, ...]:
         values = tuple(float(x) for x in text.split(","))
     except ValueError:
         raise BRDFLabError(f"{what} {text!r}: expected {n} comma-separated numbers") from None
-    if len(values) != n or not all(np.isfinite(values)):
+    if len(values) != n or not all(math.isfinite(v) for v in values):
         raise BRDFLabError(f"{what} {text!r}: expected {n} finite comma-separated numbers")
     return values
 
@@ -202,18 +216,16 @@ def cmd_render(args: argparse.Namespace) -> int:
     from brdflab.io.resources import data_dir
     from brdflab.sources.files import load_source
     from brdflab.lighting.tonemap import write_png
+    from brdflab.io.atomic import check_writable
 
     out = Path(args.out)
     if out.suffix.lower() not in (".exr", ".png"):
         raise BRDFLabError("the output must be .exr (linear) or .png (tone-mapped)", out)
-    width, height = (int(v) for v in _vector(args.size, 2, "--size"))
-    if not (1 <= width <= 8192 and 1 <= height <= 8192):
-        raise BRDFLabError(f"--size {args.size}: each side must be 1..8192")
+    check_writable(out)  # a bad --out fails before the render, not after it
+    width, height = args.size
     light = _vector(args.light, 3, "--light")
-    if np.linalg.norm(light) < 1e-12:
+    if math.hypot(*light) < 1e-12:
         raise BRDFLabError("--light must not be the zero vector")
-    if args.samples < 1:
-        raise BRDFLabError("--samples must be at least 1")
     source = load_source(Path(args.material), fitting=args.fitting)
     settings = RenderSettings(mode=args.mode, width=width, height=height, samples=args.samples, light=light,
                               env_rotation=args.env_rotation, reference_view=args.view == "reference")
@@ -252,12 +264,13 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from brdflab.study.bench import run
+    from brdflab.io.atomic import ensure_folder
+    from brdflab.study.bench import run, stderr_progress
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise BRDFLabError("--out must be a folder", out)
-    result = run(out, quick=args.quick)
+    out = ensure_folder(args.out)  # before minutes of measuring
+    result = run(out, quick=args.quick, progress=stderr_progress)
+    for row in result["sh"]["skipped"]:
+        print(f"brdflab bench: warning: skipped {row['row']}: {row['why']}", file=sys.stderr)
     fis = result["render"]["fis"]
     lines = [f"{r['material']:<12} {r['samples']:>4} samples {r['ms']:8.1f} ms  {100 * r['relative_rmse']:6.2f} %" for r in fis]
     _emit(args, {"out": str(out), "files": ["bench.json", *result["charts"]], "render": result["render"]},
@@ -328,10 +341,12 @@ def display_problem(env) -> str | None:
 
 def cmd_export(args: argparse.Namespace) -> int:
     from brdflab.export import export_source
+    from brdflab.io.atomic import check_writable
     from brdflab.sources.files import load_source
 
-    source = load_source(Path(args.source), fitting=args.fitting)
     out = Path(args.out)
+    check_writable(out)
+    source = load_source(Path(args.source), fitting=args.fitting)
     try:
         export_source(source, args.format, out, origin=Path(args.source))
     except OSError as e:
@@ -342,95 +357,139 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 # --- parser ------------------------------------------------------------------------------
 
+MAX_RENDER_SAMPLES = 65_536  # FIS samples per pixel: minutes per frame on a software rasteriser beyond this
+
+EXAMPLES = {
+    "gui": "brdflab gui example:fig2\n  xvfb-run -a brdflab gui measured/chrome.binary",
+    "models": "brdflab models\n  brdflab models --json | python3 -m json.tool",
+    "examples": "brdflab examples\n  brdflab info example:fig2",
+    "info": "brdflab info example:fig2\n  brdflab info gold.slice --json",
+    "eval": "brdflab eval example:fig2 --pairs pairs.npy --out values.npy\n"
+            "  brdflab eval fits.xml --fitting 0 --pairs pairs.npy --out values.npy",
+    "fit": "brdflab fit gold-metallic-paint3.slice --lobes Lambertian,CookTorrance --out gold.xml\n"
+           "  brdflab fit gold.xml --init gold.xml --out gold.xml --json",
+    "batch": "brdflab batch slices/ --lobes Lambertian,BlinnPhong --lobes Lambertian,CookTorrance --out results/",
+    "render": "brdflab render example:fig2 --mode fis --samples 256 --out fig2.png\n"
+              "  brdflab render gold.xml --fitting 0 --mode sh --view reference --out gold.exr",
+    "simulate": "brdflab simulate --list\n  brdflab simulate <KIND> --set NAME=VALUE --out simulated.xml",
+    "export": "brdflab export example:fig2 --format glsl --out fig2.glsl\n"
+              "  brdflab export gold.slice --format merl --out gold.binary",
+    "bench": "brdflab bench --quick --out bench-out/",
+}
+
+
+def _add(sub, name: str, help: str, **kwargs) -> argparse.ArgumentParser:
+    """A sub-command whose help ends with an example or two."""
+    return sub.add_parser(name, help=help, description=kwargs.pop("description", help[0].upper() + help[1:] + "."),
+                          epilog="example:\n  " + EXAMPLES[name], **kwargs)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="brdflab", description="A laboratory for reflectance.")
-    sub = parser.add_subparsers(dest="command")
-
-    p = sub.add_parser("gui", help="open the desktop application")
-    p.add_argument("file", nargs="?", help="an XML material or measured data file")
-    p.set_defaults(func=cmd_gui)
-
-    p = sub.add_parser("models", help="list every lobe model")
-    p.add_argument("--json", action="store_true")
-    p.set_defaults(func=cmd_models)
-
-    p = sub.add_parser("info", help="what a material or data file holds")
-    p.add_argument("file")
-    p.add_argument("--json", action="store_true")
-    p.set_defaults(func=cmd_info)
-
-    p = sub.add_parser("eval", help="evaluate a material at direction pairs")
-    p.add_argument("material")
-    p.add_argument("--pairs", required=True, help="(N, 6) .npy array [wi | wo] in the local frame")
-    p.add_argument("--out", required=True, help="(N, C) .npy output")
-    p.add_argument("--fitting", type=int, default=None, help="evaluate the K-th stored fit (0-based)")
-    p.add_argument("--json", action="store_true")
-    p.set_defaults(func=cmd_eval)
-
+    from brdflab import __version__
+    from brdflab.cli_options import Parser, finite_float, image_size, int_in, material_path
     from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
 
-    p = sub.add_parser("fit", help="fit analytic lobes to a source with Levenberg–Marquardt",
-                       description="Fit analytic lobes to a source with Levenberg–Marquardt. Every source "
-                       "(table, slice, raw samples, analytic grid) is fitted and scored over the same "
-                       "solid-angle measure of (ωi, ωo) pairs. " + DEFAULTS_WHY)
-    p.add_argument("source", help="measured data file, XML material, or XML with fits (see --fitting)")
+    parser = Parser(prog="brdflab", description="A laboratory for reflectance. Without a command it opens "
+                    "the GUI. Material arguments take a file or `example:NAME` (see `brdflab examples`).",
+                    epilog="examples:\n  brdflab info example:fig2\n  brdflab render example:fig2 --out fig2.png\n"
+                           "  brdflab COMMAND --help")
+    parser.add_argument("--version", action="version", version=f"brdflab {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = _add(sub, "gui", "open the desktop application")
+    p.add_argument("file", nargs="?", type=material_path, help="an XML material or measured data file")
+    p.set_defaults(func=cmd_gui)
+
+    p = _add(sub, "models", "list every lobe model")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_models)
+
+    p = _add(sub, "examples", "list the shipped example materials (use them as example:NAME)")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_examples)
+
+    p = _add(sub, "info", "what a material or data file holds")
+    p.add_argument("file", type=material_path, help="XML material, measured data, or example:NAME")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_info)
+
+    p = _add(sub, "eval", "evaluate a material at direction pairs")
+    p.add_argument("material", type=material_path, help="XML material, measured data, or example:NAME")
+    p.add_argument("--pairs", required=True, help="(N, 6) .npy array [wi | wo] in the local frame")
+    p.add_argument("--out", required=True, help="(N, C) .npy output")
+    p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="evaluate the K-th stored fit (0-based)")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_eval)
+
+    p = _add(sub, "fit", "fit analytic lobes to a source with Levenberg–Marquardt",
+             description="Fit analytic lobes to a source with Levenberg–Marquardt. Every source "
+             "(table, slice, raw samples, analytic grid) is fitted and scored over the same "
+             "solid-angle measure of (ωi, ωo) pairs. " + DEFAULTS_WHY)
+    p.add_argument("source", type=material_path,
+                   help="measured data file, XML material (or example:NAME), or XML with fits (see --fitting)")
     p.add_argument("--lobes", help="comma-separated lobe models, e.g. Lambertian,LafortuneIso")
-    p.add_argument("--combination", choices=["linear", "fixed"], default="linear")
-    p.add_argument("--metric", default=DEFAULT_METRIC, help=f"Ngan, L2 or cosL2 (default {DEFAULT_METRIC})")
-    p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"])
-    p.add_argument("--init", help="XML file whose last fitting (or material) is the initial guess")
-    p.add_argument("--init-fitting", type=int, default=None, help="use this stored fitting of --init")
-    p.add_argument("--fitting", type=int, default=None, help="fit the K-th stored fit of SOURCE")
-    p.add_argument("--samples", choices=["all", "subset", "grid"], default="all")
-    p.add_argument("--size", type=int, default=None, help="samples in a subset")
-    p.add_argument("--density", type=int, default=None, help="bins per angle of a grid")
+    p.add_argument("--combination", choices=["linear", "fixed"], default="linear", help="how lobes combine")
+    p.add_argument("--metric", default=DEFAULT_METRIC, help="Ngan, L2 or cosL2")
+    p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"], help="of the values fitted")
+    p.add_argument("--init", type=material_path, help="XML file whose last fitting (or material) is the initial guess")
+    p.add_argument("--init-fitting", type=int_in(0, 1_000_000), default=None, help="use this stored fitting of --init")
+    p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="fit the K-th stored fit of SOURCE")
+    p.add_argument("--samples", choices=["all", "subset", "grid"], default="all", help="which samples to fit")
+    p.add_argument("--size", type=int_in(1, 100_000_000), default=None,
+                   help="samples in a subset (default: 50,000)")
+    p.add_argument("--density", type=int_in(2, 90), default=None,
+                   help="bins per angle of a grid (2..90; default: 45 for tables, 32 for analytic sources)")
     p.add_argument("--restarts", action=argparse.BooleanOptionalAction, default=None,
                    help="also start from each model's own guesses and keep the best (default: on, "
                         "off when continuing an --init fit)")
-    p.add_argument("--max-iterations", type=int, default=200)
+    p.add_argument("--max-iterations", type=int_in(1, 1_000_000), default=200, help="Levenberg–Marquardt iterations")
     p.add_argument("--time-limit", type=float, default=float("inf"),
                    help="seconds (> 0); the fit stops within one sample chunk and keeps the best so far")
     p.add_argument("--out", help="write the source's XML with the new <Fitting> here")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_fit)
 
-    p = sub.add_parser("batch", help="fit lobe sets to many sources on a Dask cluster (resumable)")
+    p = _add(sub, "batch", "fit lobe sets to many sources on a Dask cluster (resumable)")
     p.add_argument("sources", nargs="+", help="measured data or XML files, or folders of them")
     p.add_argument("--lobes", action="append", required=True,
                    help="a lobe set, e.g. Lambertian,BlinnPhong; repeat for several")
-    p.add_argument("--metric", default=DEFAULT_METRIC, help=f"L2, cosL2 or Ngan (default {DEFAULT_METRIC}, as for fit)")
-    p.add_argument("--combination", choices=["linear", "fixed"], default="linear")
-    p.add_argument("--max-iterations", type=int, default=200)
+    p.add_argument("--metric", default=DEFAULT_METRIC, help="L2, cosL2 or Ngan (as for fit)")
+    p.add_argument("--combination", choices=["linear", "fixed"], default="linear", help="how lobes combine")
+    p.add_argument("--max-iterations", type=int, default=200, help="Levenberg–Marquardt iterations")
     p.add_argument("--out", required=True, help="folder for the results table, the charts and fits/*.xml")
     p.add_argument("--scheduler", help="address of an existing Dask scheduler, e.g. tcp://host:8786")
-    p.add_argument("--workers", type=int, default=None, help="worker processes of the local cluster (default: one per core)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes of the local cluster (default: one per core)")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_batch)
 
-    p = sub.add_parser("render", help="offscreen render of a material")
-    p.add_argument("material", help="XML material or measured data file")
-    p.add_argument("--mode", choices=["point", "fis", "sh"], default="point")
-    p.add_argument("--view", choices=["reference", "orbit"], default="orbit")
+    p = _add(sub, "render", "offscreen render of a material")
+    p.add_argument("material", type=material_path, help="XML material, measured data file, or example:NAME")
+    p.add_argument("--mode", choices=["point", "fis", "sh"], default="point",
+                   help="point light, filtered importance sampling of --env, or spherical harmonics")
+    p.add_argument("--view", choices=["reference", "orbit"], default="orbit",
+                   help="reference: the benchmarks' orthographic unit sphere; orbit: a perspective view of --mesh")
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")
     p.add_argument("--env", help="environment map (.hdr or .exr); default: the shipped CC0 map")
     p.add_argument("--env-layout", choices=["auto", "latlong", "angular", "dual-paraboloid"], default="auto",
                    help="light-probe layout of --env; auto: a square image with a disk is an angular map")
-    p.add_argument("--env-rotation", type=float, default=0.0, help="degrees about +Y")
+    p.add_argument("--env-rotation", type=finite_float, default=0.0, help="degrees about +Y")
     p.add_argument("--light", default="0,0,1", help="direction towards the light, X,Y,Z (world)")
-    p.add_argument("--samples", type=int, default=64)
-    p.add_argument("--sh-order", type=int, default=5, help="bands of the SH mode (order² coefficients)")
+    p.add_argument("--samples", type=int_in(1, MAX_RENDER_SAMPLES), default=64,
+                   help=f"FIS samples per pixel (1..{MAX_RENDER_SAMPLES})")
+    p.add_argument("--sh-order", type=int_in(1, 16, name="SH order"), default=5, help="bands of the SH mode (order² coefficients), 1..16")
     p.add_argument("--sh-window", choices=["none", "hanning", "lanczos"], default="none", help="against ringing")
     p.add_argument("--sh-shadows", action="store_true", help="self-shadowing by precomputed transfer (meshes)")
     p.add_argument("--sh-variant", choices=["dynamic", "fixed-light", "fixed-view"], default="dynamic",
                    help="per-pixel rotation, or the paper's per-vertex precomputation for a fixed light or view")
-    p.add_argument("--size", default="512,512", help="W,H")
-    p.add_argument("--exposure", type=float, default=0.0, help="stops, for .png output")
-    p.add_argument("--fitting", type=int, default=None, help="render the K-th stored fit")
-    p.add_argument("--out", required=True)
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--size", type=image_size, default="512,512", help="W,H in pixels (1..8192 each)")
+    p.add_argument("--exposure", type=finite_float, default=0.0, help="stops, for .png output")
+    p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="render the K-th stored fit")
+    p.add_argument("--out", required=True, help=".exr (linear radiance) or .png (tone-mapped)")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_render)
 
-    p = sub.add_parser("simulate", help="write a simulated material (SCATMECH or ray-bounce microgeometry)")
+    p = _add(sub, "simulate", "write a simulated material (SCATMECH or ray-bounce microgeometry)")
     p.add_argument("kind", nargs="?", help="a simulated kind (see --list)")
     p.add_argument("--list", action="store_true", help="list every simulated kind with its parameters")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a parameter value (repeatable)")
@@ -439,33 +498,40 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resolution", type=int, default=32, help="R of the R×R×R half/difference table")
     p.add_argument("--name", help="the material's name (default: the kind)")
     p.add_argument("--out", help="the XML material to write")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_simulate)
 
-
-    p = sub.add_parser("export", help="write a material or stored fit for other tools")
-    p.add_argument("source", help="XML material or measured data file")
+    p = _add(sub, "export", "write a material or stored fit for other tools")
+    p.add_argument("source", type=material_path, help="XML material, measured data file, or example:NAME")
     p.add_argument("--format", choices=["merl", "brdf-explorer", "glsl"], required=True,
                    help="merl: a MERL .binary table (any source, tabulated); brdf-explorer: a Disney BRDF Explorer .brdf; glsl: a GLSL function with the parameters baked in")
-    p.add_argument("--fitting", type=int, default=None, help="export the K-th stored fit")
-    p.add_argument("--out", required=True)
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="export the K-th stored fit")
+    p.add_argument("--out", required=True, help="the file to write")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_export)
 
-    p = sub.add_parser("bench", help="speed/accuracy charts (PNG) and numbers (JSON)")
+    p = _add(sub, "bench", "speed/accuracy charts (PNG) and numbers (JSON)")
     p.add_argument("--quick", action="store_true", help="smaller sizes, fewer sample counts")
-    p.add_argument("--out", required=True, help="folder for bench.json and the charts")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--out", required=True, help="folder for bench.json and the charts (created if missing)")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_bench)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    from brdflab.cli_options import UsageError
+
+    if argv is None and hasattr(sys.stdout, "reconfigure"):
+        sys.stdout.reconfigure(encoding="utf-8")  # JSON and names print as UTF-8 whatever the locale
     argv = sys.argv[1:] if argv is None else argv
     parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command is None:
-        args = parser.parse_args(["gui"])
+    try:
+        args = parser.parse_args(argv)
+        if args.command is None:
+            args = parser.parse_args(["gui"])
+    except UsageError as e:
+        print(e, file=sys.stderr)
+        return 2
     try:
         return args.func(args)
     except BRDFLabError as e:

@@ -20,7 +20,8 @@ uniform sampler2D u_env;
 uniform vec2 u_env_size;
 uniform float u_env_max_lod;
 uniform float u_env_rotation;     // radians about +Y
-uniform sampler2D u_samples;      // (u1, u2, lobe, 0) per sample
+uniform sampler2D u_samples;      // (u1, u2, lobe, 0) per sample, row by row
+uniform int u_sample_row;          // samples per texture row (GL caps a row's width)
 uniform int u_sample_begin;
 uniform int u_sample_end;
 uniform float u_set_size;         // samples in the whole set (for the filter footprint)
@@ -60,7 +61,7 @@ void main() {
 #ifdef MODE_FIS
     float texel = 2.0 * PI * PI / (u_env_size.x * u_env_size.y);  // solid angle per texel / sin θ
     for (int i = u_sample_begin; i < u_sample_end; i++) {
-        vec4 s = texelFetch(u_samples, ivec2(i, 0), 0);
+        vec4 s = texelFetch(u_samples, ivec2(i % u_sample_row, i / u_sample_row), 0);
         vec3 wi = material_sample(int(s.z), wo, s.xy);
         if (wi.z <= 0.0) continue;
         float pdf = material_pdf(wi, wo);

@@ -95,8 +95,15 @@ def test_wheel_in_a_fresh_venv_runs_every_command(installed):
                       "--samples", "16", "--sh-order", "3", "--out", f"{mode}.png", "--json")
         assert (work / f"{mode}.png").stat().st_size > 500, out.stderr
 
-    bench = last_json(brdflab(installed, "bench", "--quick", "--out", "bench", "--json"))
+    assert last_json(brdflab(installed, "info", "example:fig2", "--json"))["material"]["type"] == "Analytic"
+
+    run = brdflab(installed, "bench", "--quick", "--out", "bench", "--json")
+    bench = last_json(run)
     check_bench_outputs(work / "bench", bench)
+    progress = [line for line in run.stderr.splitlines() if line.startswith("brdflab bench: ")]
+    assert len(progress) >= 6, run.stderr  # a line per step, not minutes of silence
+    measured = any("measured" in t["source"] for t in json.loads((work / "bench" / "bench.json").read_text())["sh"]["tables"])
+    assert measured or "skipped SH tables of a measured material" in run.stderr  # never dropped silently
 
 
 def check_bench_outputs(out: Path, payload: dict) -> None:

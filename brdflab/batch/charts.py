@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from brdflab.io.xmlio import atomic_write
+from brdflab.io.atomic import atomic_write
 
 
 def _save(fig, path: Path) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from brdflab.errors import BRDFLabError
-from brdflab.io.xmlio import atomic_write
+from brdflab.io.atomic import atomic_write
 
 COLUMNS = ["source", "material", "lobes", "combination", "metric", "error", "parameters", "seconds", "iterations",
            "evaluations", "status", "message", "worker", "pid", "sha256", "options", "key"]
@@ -61,8 +61,5 @@ class ResultsTable:
         frame = self.frame()
         parquet = io.BytesIO()
         frame.to_parquet(parquet, index=False)
-        try:
-            atomic_write(self.folder / PARQUET_NAME, parquet.getvalue())
-            atomic_write(self.folder / CSV_NAME, frame.to_csv(index=False).encode())
-        except OSError as e:
-            raise BRDFLabError(f"cannot write the results table: {e.strerror}", self.folder) from None
+        atomic_write(self.folder / PARQUET_NAME, parquet.getvalue())  # BRDFLabError names the file
+        atomic_write(self.folder / CSV_NAME, frame.to_csv(index=False).encode())

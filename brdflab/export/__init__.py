@@ -13,7 +13,7 @@ FORMATS = ("merl", "brdf-explorer", "glsl")
 def export_source(source, fmt: str, path: str | os.PathLike, origin: Path | None = None) -> None:
     """Write `source` to `path` in format `fmt` (one of FORMATS), atomically; errors about
     the source name `origin`, the file it came from."""
-    from brdflab.io.xmlio import atomic_write
+    from brdflab.io.atomic import atomic_write
 
     path = Path(path)
     if fmt == "merl":

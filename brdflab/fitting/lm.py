@@ -28,13 +28,13 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from scipy.optimize import nnls
 
 from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import get_model
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULT_RESTARTS
 from brdflab.fitting.diagnosis import suspicions
+from brdflab.fitting.nnls import nnls
 from brdflab.fitting.metrics import METRICS, metric_errors, sample_weight
 from brdflab.fitting.samples import SampleSet
 
@@ -432,8 +432,7 @@ def _nnls(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     except np.linalg.LinAlgError:
         return np.zeros(n)
     z = np.linalg.solve(R.T, b)
-    s, _ = nnls(R, z, maxiter=50 * n)
-    return s
+    return nnls(R, z, max_iterations=50 * n)
 
 
 # --- Levenberg–Marquardt ----------------------------------------------------------------------

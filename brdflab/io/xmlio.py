@@ -13,13 +13,13 @@ import hashlib
 import math
 import os
 import re
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from lxml import etree
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.atomic import atomic_write
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import get_model
 
@@ -491,40 +491,12 @@ def to_bytes(doc: BRDFDocument) -> bytes:
         document_element(doc), pretty_print=True, xml_declaration=True, encoding="UTF-8", doctype=doctype)
 
 
-def atomic_write(path: str | os.PathLike, data: bytes) -> None:
-    """Write `data` to `path` through a temporary file in the same folder and a rename,
-    so that a crash or a full disk never leaves a half-written file behind."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        if path.exists():
-            os.chmod(tmp, path.stat().st_mode & 0o7777)
-        else:  # mkstemp makes private files; a new file gets the usual permissions
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
 def save(doc: BRDFDocument, path: str | os.PathLike) -> None:
     """Write `doc` to `path` atomically. Measured data paths stay relative to the file."""
     path = Path(path)
     if isinstance(doc.material, MeasuredReference):
         doc.material = _rebase(doc.material, path.parent)
-    try:
-        atomic_write(path, to_bytes(doc))
-    except OSError as e:
-        raise BRDFLabError(f"cannot write: {e.strerror}", path) from None
+    atomic_write(path, to_bytes(doc))
     doc.path = path
 
 

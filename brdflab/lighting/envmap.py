@@ -192,23 +192,20 @@ def read_exr(path: str | os.PathLike) -> np.ndarray:
 
 
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
-    """Write linear float32 RGB (H, W, 3) as OpenEXR (ZIP compression), atomically."""
+    """Write linear float32 RGB (H, W, 3) as OpenEXR (ZIP compression), atomically: through
+    a unique temporary file in the target folder, so concurrent writers never mix."""
     import OpenEXR
 
-    from brdflab.io.xmlio import atomic_write
+    from brdflab.io.atomic import atomic_path
 
-    path = Path(path)
     img = np.ascontiguousarray(image[..., :3], np.float32)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    tmp = path.with_name(f".{path.name}.tmp.exr")
-    try:
-        with OpenEXR.File(header, {"RGB": img}) as f:
-            f.write(str(tmp))
-        atomic_write(path, tmp.read_bytes())
-    except OSError as e:
-        raise BRDFLabError(f"cannot write: {e.strerror}", path) from None
-    finally:
-        tmp.unlink(missing_ok=True)
+    with atomic_path(path) as tmp:
+        try:
+            with OpenEXR.File(header, {"RGB": img}) as f:
+                f.write(str(tmp))
+        except RuntimeError as e:  # the library reports write failures (a full disk) this way
+            raise BRDFLabError(f"cannot write OpenEXR: {str(e).splitlines()[0] if str(e) else 'failed'}", path) from None
 
 
 def load_environment(path: str | os.PathLike, layout: str = "auto") -> EnvironmentMap:

@@ -11,8 +11,8 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy.stats import qmc
 
+from brdflab.geometry.sobol import scrambled_sobol
 from brdflab.lighting import sh
 from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial
@@ -38,7 +38,7 @@ def parabolic_views(size: int) -> tuple[np.ndarray, np.ndarray]:
 
 @lru_cache(maxsize=4)
 def _sobol(n_log2: int) -> np.ndarray:
-    return qmc.Sobol(d=2, scramble=True, seed=11).random_base2(n_log2)
+    return scrambled_sobol(n_log2, seed=11)
 
 
 def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int = 8, chunk: int = 512) -> np.ndarray:

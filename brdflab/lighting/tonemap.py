@@ -21,7 +21,7 @@ def tonemap(image: np.ndarray, exposure: float = 0.0, gamma: float | None = None
 def write_png(path, image: np.ndarray, **kwargs) -> None:
     from PIL import Image
 
-    from brdflab.io.xmlio import atomic_write
+    from brdflab.io.atomic import atomic_write
     import io
 
     buf = io.BytesIO()

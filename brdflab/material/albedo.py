@@ -12,15 +12,15 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.stats import qmc
 
+from brdflab.geometry.sobol import scrambled_sobol
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.geometry.vec import spherical_to_cartesian
 
 
 @lru_cache(maxsize=8)
 def _sobol(n_log2: int) -> np.ndarray:
-    return qmc.Sobol(d=2, scramble=True, seed=7).random_base2(n_log2)
+    return scrambled_sobol(n_log2, seed=7)
 
 
 @lru_cache(maxsize=8)

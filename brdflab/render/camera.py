@@ -8,14 +8,27 @@ from dataclasses import dataclass
 import numpy as np
 
 
+FOV = 35.0  # degrees, across the narrower side of the image
+FILL = 0.9  # the framed sphere's radius, as a fraction of half the narrower side
+
+
+def framing_distance(radius: float = 1.0, fov: float = FOV, fill: float = FILL) -> float:
+    """The distance at which a sphere of `radius` (meshes are scaled into the unit sphere)
+    fills `fill` of the narrower side: its silhouette's half-angle α has
+    tan α = fill · tan(fov / 2), and sin α = radius / distance."""
+    alpha = math.atan(fill * math.tan(math.radians(fov) / 2.0))
+    return radius / math.sin(alpha)
+
+
 @dataclass
 class OrbitCamera:
-    """Looks at the origin from `distance`, turned by yaw (about +Y) and pitch (degrees)."""
+    """Looks at the origin from `distance`, turned by yaw (about +Y) and pitch (degrees);
+    by default far enough to show the whole unit sphere, whatever the image's aspect."""
 
     yaw: float = 30.0
     pitch: float = 20.0
-    distance: float = 3.2
-    fov: float = 35.0
+    distance: float = framing_distance()
+    fov: float = FOV
 
     @property
     def position(self) -> np.ndarray:

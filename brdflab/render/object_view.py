@@ -25,6 +25,7 @@ from brdflab.lighting.sampling_sets import lobe_shares, sample_set
 MODES = ("point", "fis", "sh")
 BATCH = 32  # samples per draw: keeps each draw short on software rasterisers
 VERTEX_ROW = 64  # vertices per row of the per-vertex SH lighting texture
+SAMPLE_ROW = 4096  # samples per row of the sample texture: far below any GL_MAX_TEXTURE_SIZE (≥ 4096 in GL 3.3)
 
 
 @dataclass
@@ -187,8 +188,10 @@ class ObjectRenderer:
             blocks = []
             for angle in (math.pi / 2, -math.pi / 2):
                 M = sh.rotation_matrix(sh.axis_rotation("x", angle), order)
-                blocks.append(np.concatenate([M[l * l:(l + 1) ** 2, l * l:(l + 1) ** 2].ravel() for l in range(1, order)]))
-            rx_data = np.concatenate(blocks).astype(np.float32)
+                blocks.append(np.concatenate([np.zeros(0)] + [M[l * l:(l + 1) ** 2, l * l:(l + 1) ** 2].ravel()
+                                                              for l in range(1, order)]))
+            # order 1 (band 0 alone) turns nothing: a one-texel texture keeps the sampler valid
+            rx_data = np.concatenate(blocks + [np.zeros(1)]).astype(np.float32)
             rx = self.ctx.texture((len(rx_data), 1), 1, rx_data.tobytes(), dtype="f4")
             rx.filter = (moderngl.NEAREST, moderngl.NEAREST)
             light = sh.project_environment(self.environment, order, self.sh_window)
@@ -343,6 +346,7 @@ class ObjectRenderer:
             samples_texture.use(1)
             _set(prog, "u_env", 0)
             _set(prog, "u_samples", 1)
+            _set(prog, "u_sample_row", SAMPLE_ROW)
             _set(prog, "u_env_size", tuple(float(x) for x in self.env_size))
             _set(prog, "u_env_max_lod", float(math.floor(math.log2(max(self.env_size)))))
             _set(prog, "u_env_rotation", math.radians(settings.env_rotation))
@@ -380,10 +384,18 @@ class ObjectRenderer:
         return self._mesh_vao[key]
 
     def samples_texture(self, n: int, rotation: np.ndarray | None = None) -> moderngl.Texture:
-        """The sample set as an RGBA32F texture (and with the exact lobe shares applied)."""
+        """The sample set as an RGBA32F texture, SAMPLE_ROW samples per row, so that any
+        count fits under GL's texture size limit (and with the exact lobe shares applied)."""
         data, fractions = sample_set(self._shares, n, rotation)
         self._uniforms = {**self._uniforms, "u_lobe_share": fractions.astype(np.float32)}
-        tex = self.ctx.texture((len(data), 1), 4, data.tobytes(), dtype="f4")
+        rows = -(-len(data) // SAMPLE_ROW)
+        limit = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 4096))
+        if rows > limit:
+            raise BRDFLabError(f"{len(data)} samples exceed this OpenGL's texture limit ({SAMPLE_ROW * limit})")
+        width = SAMPLE_ROW if rows > 1 else len(data)
+        padded = np.zeros((rows * width, 4), np.float32)
+        padded[: len(data)] = data
+        tex = self.ctx.texture((width, rows), 4, padded.tobytes(), dtype="f4")
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return tex
 

@@ -144,7 +144,7 @@ def compute_table(spec: SimulationSpec, progress: Progress | None = None, worker
 
 def load_table(spec: SimulationSpec, progress: Progress | None = None, workers: int | None = None) -> tuple[HalfDiffTable, float]:
     """The spec's table from the cache, or computed and cached; and the seconds it took."""
-    from brdflab.io.xmlio import atomic_write
+    from brdflab.io.atomic import atomic_write
 
     path = cache_dir() / f"{spec.kind}-{spec.key()}.npy"
     if path.is_file():
@@ -162,7 +162,7 @@ def load_table(spec: SimulationSpec, progress: Progress | None = None, workers: 
         buf = io.BytesIO()
         np.save(buf, table.values)
         atomic_write(path, buf.getvalue())
-    except OSError:
+    except (OSError, BRDFLabError):
         pass  # an unwritable cache only costs time
     return table, seconds
 

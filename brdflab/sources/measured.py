@@ -172,7 +172,7 @@ def read_merl_binary(path: str | os.PathLike) -> MeasuredTable:
 
 def write_merl_binary(table: MeasuredTable, path: str | os.PathLike) -> None:
     """Write a full 3-channel table as MERL `.binary` (unmeasured samples as −1)."""
-    from brdflab.io.xmlio import atomic_write
+    from brdflab.io.atomic import atomic_write
 
     full = table.to_full()
     if full.n_channels != 3:

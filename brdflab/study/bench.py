@@ -6,9 +6,12 @@ against NumPy quadrature over the environment map's texels in the reference view
 
 from __future__ import annotations
 
+import io
 import json
 import platform
+import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -17,9 +20,19 @@ from brdflab.lighting.envmap import load_environment
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import all_models
 from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
-from brdflab.io.resources import data_dir
+from brdflab.io.resources import data_dir, shared_data_dir
 
-DATA_SLICE = Path(__file__).resolve().parents[3] / "shared" / "data" / "merl_slices" / "gold-metallic-paint3.slice"
+DATA_SLICE = ("merl_slices", "gold-metallic-paint3.slice")  # under the developers' shared data
+Progress = Callable[[str], None]
+
+
+def stderr_progress(message: str) -> None:
+    """One line per step on stderr, so a long run shows it is alive."""
+    print(f"brdflab bench: {message}", file=sys.stderr, flush=True)
+
+
+def _quiet(message: str) -> None:
+    """No progress output."""
 
 BENCH_MATERIALS = {
     "diffuse": lambda: AnalyticMaterial("diffuse", "Linear", 3, [Lobe.create("Lambertian", [0.25, 0.2, 0.15])]),
@@ -28,6 +41,15 @@ BENCH_MATERIALS = {
     "anisotropic": lambda: AnalyticMaterial("anisotropic", "Linear", 3, [Lobe.create("Lambertian", [0.03] * 3),
                                                                          Lobe.create("Ward", [0.6] * 3, ax=0.08, ay=0.3)]),
 }
+
+
+def measured_slice() -> tuple[Path | None, str]:
+    """The measured slice the SH benchmark tabulates, or None and why it is missing."""
+    shared = shared_data_dir()
+    if shared is None:
+        return None, "no shared data: set BRDFLAB_SHARED, or put shared/data next to the checkout"
+    path = shared.joinpath(*DATA_SLICE)
+    return (path, "") if path.is_file() else (None, f"not found: {path}")
 
 
 def _timed(fn, repeat: int) -> float:
@@ -62,7 +84,7 @@ def _scene(quick: bool):
     return ctx, ObjectRenderer(ctx), env, env.downsampled(128, 64), (256 if quick else 512), (48 if quick else 96)
 
 
-def render_numbers(quick: bool) -> dict:
+def render_numbers(quick: bool, progress: Progress = _quiet) -> dict:
     from brdflab.render.lobe_view import LobeViewer
     from brdflab.render.object_view import RenderSettings
 
@@ -71,6 +93,7 @@ def render_numbers(quick: bool) -> dict:
     out = {"renderer": ctx.info.get("GL_RENDERER", ""), "size": size, "error_size": err_size, "point": [], "fis": []}
     inside = sphere_view(err_size, err_size).inside
     for name, make in BENCH_MATERIALS.items():
+        progress(f"rendering the {name} material (point light, FIS with {', '.join(map(str, counts))} samples)")
         material = make()
         renderer.set_material(material)
         ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("point", size, size)), 3)
@@ -82,6 +105,7 @@ def render_numbers(quick: bool) -> dict:
             renderer.set_environment(small)
             err = relative_rmse(renderer.render(RenderSettings("fis", err_size, err_size, samples=n)), reference, inside)
             out["fis"].append({"material": name, "samples": n, "ms": ms, "relative_rmse": err})
+    progress("timing the lobe viewer")
     viewer = LobeViewer(ctx)
     viewer.set_original(BENCH_MATERIALS["glossy"]())
     out["lobe_viewer"] = []
@@ -106,7 +130,7 @@ def big_mesh(min_vertices: int = 150_000):
     return from_arrays(v, f, name="spot-subdivided")
 
 
-def sh_numbers(quick: bool) -> dict:
+def sh_numbers(quick: bool, progress: Progress = _quiet) -> dict:
     from brdflab.sources.measured import read_slice
     from brdflab.render.object_view import RenderSettings
     from brdflab.lighting.sh_tables import brdf_table
@@ -115,13 +139,18 @@ def sh_numbers(quick: bool) -> dict:
     orders = (3, 5) if quick else (3, 5, 8)
     material = AnalyticMaterial("glossy", "Linear", 3, [Lobe.create("Lambertian", [0.05] * 3),
                                                         Lobe.create("BlinnPhong", [0.3] * 3, Exponent=20.0)])
-    out = {"size": size, "tables": [], "frames": [], "errors": []}
+    out = {"size": size, "tables": [], "frames": [], "errors": [], "skipped": []}
+    progress(f"building SH tables of orders {', '.join(map(str, orders))}")
     for order in orders:
         t0 = time.perf_counter()
         brdf_table(material, order)
         out["tables"].append({"source": "analytic (Lambertian + Blinn-Phong)", "order": order, "seconds": time.perf_counter() - t0})
-    slice_path = DATA_SLICE
-    if slice_path.exists():
+    slice_path, why = measured_slice()
+    if slice_path is None:
+        out["skipped"].append({"row": "SH tables of a measured material", "why": why})
+        progress(f"skipped the measured SH table rows: {why}")
+    else:
+        progress(f"building SH tables of the measured slice {slice_path.name}")
         table = read_slice(slice_path).to_full()
         for order in orders:
             t0 = time.perf_counter()
@@ -133,6 +162,7 @@ def sh_numbers(quick: bool) -> dict:
     renderer.set_source(material)
     mesh = big_mesh(50_000 if quick else 150_000)
     for order in orders:
+        progress(f"SH order {order}: error and frame times (sphere, {mesh.n_vertices}-vertex mesh, fixed variants)")
         renderer.set_sh_order(order)
         renderer.set_environment(small)
         err = relative_rmse(renderer.render(RenderSettings("sh", err_size, err_size)), reference, inside)
@@ -150,6 +180,19 @@ def sh_numbers(quick: bool) -> dict:
         renderer.sh_variant = "dynamic"
         renderer.set_mesh(None)
     return out
+
+
+def _save(fig, path: Path) -> str:
+    """Save a chart atomically and close it; its file name."""
+    import matplotlib.pyplot as plt
+
+    from brdflab.io.atomic import atomic_write
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    atomic_write(path, buf.getvalue())
+    return path.name
 
 
 def charts(result: dict, out_dir: Path) -> list[str]:
@@ -181,10 +224,7 @@ def charts(result: dict, out_dir: Path) -> list[str]:
     ax.set_title("Environment lighting: speed against accuracy (FIS labels: samples)")
     ax.legend()
     fig.tight_layout()
-    path = out_dir / "render_speed_accuracy.png"
-    fig.savefig(path)
-    plt.close(fig)
-    files.append(path.name)
+    files.append(_save(fig, out_dir / "render_speed_accuracy.png"))
 
     fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
     rows = sorted(result["models"], key=lambda r: r["mpairs_per_s"])
@@ -196,22 +236,21 @@ def charts(result: dict, out_dir: Path) -> list[str]:
     ax.set_xlabel("million direction pairs per second (NumPy, one core)")
     ax.set_title("What each lobe model costs")
     fig.tight_layout()
-    path = out_dir / "model_throughput.png"
-    fig.savefig(path)
-    plt.close(fig)
-    files.append(path.name)
+    files.append(_save(fig, out_dir / "model_throughput.png"))
     return files
 
 
-def run(out_dir: Path, quick: bool = False) -> dict:
-    from brdflab.io.xmlio import atomic_write
+def run(out_dir: Path, quick: bool = False, progress: Progress = _quiet) -> dict:
+    """Measure everything, write the charts and bench.json into `out_dir`; the results."""
+    from brdflab.io.atomic import atomic_write
 
-    out_dir.mkdir(parents=True, exist_ok=True)
     result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine()},
-              "quick": quick,
-              "models": model_throughput(100_000 if quick else 1_000_000),
-              "render": render_numbers(quick),
-              "sh": sh_numbers(quick)}
+              "quick": quick}
+    progress("timing every lobe model (NumPy)")
+    result["models"] = model_throughput(100_000 if quick else 1_000_000)
+    result["render"] = render_numbers(quick, progress)
+    result["sh"] = sh_numbers(quick, progress)
+    progress("drawing the charts")
     result["charts"] = charts(result, out_dir)
     atomic_write(out_dir / "bench.json", json.dumps(result, indent=2).encode())
     return result
