@@ -660,11 +660,11 @@ def _convergence(ax, history: list) -> None:
     ax.tick_params(labelsize=6)
 
 
-def _sampled_albedo(source, views: np.ndarray, n: int = 4096) -> np.ndarray:
+def _sampled_albedo(source, views: np.ndarray, n_log2: int = 12) -> np.ndarray:
     """∫ f cos θi dωi of any source by cosine-weighted quasi-random directions (measured data)."""
-    from scipy.stats import qmc
+    from brdflab.geometry.sobol import scrambled_sobol
 
-    u = qmc.Sobol(2, scramble=True, seed=7).random(n)
+    u = scrambled_sobol(n_log2, seed=7)
     r, phi = np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
     wi = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(0.0, 1 - r * r))], axis=1)
     out = []
