@@ -73,5 +73,6 @@ def test_split_and_difference_show_the_fit_beside_the_original(window, qtbot, tm
     qtbot.waitUntil(settled, timeout=30000)
     qtbot.wait(300)
     diff = view_rgb(view).astype(int)
+    covered = np.abs(diff - [31, 31, 36]).max(axis=2) > 10  # not the flat background of a point light
     reds = (diff[..., 0] > 150) & (diff[..., 2] < 80)  # the heat ramp: large differences are red to white
-    assert reds.mean() > 0.02
+    assert reds[covered].mean() > 0.05  # 0.11 measured: the dull fit misses the highlight

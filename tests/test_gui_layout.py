@@ -51,7 +51,7 @@ def test_export_image_saves_what_the_view_shows(window, qtbot, tmp_path):
         assert img.shape[:2] == (view.grabFramebuffer().height(), view.grabFramebuffer().width())
         assert img.std() > 5  # a picture, not a blank
     assert not window.export_image(window.lobe_view, tmp_path / "missing" / "x.png")  # an error, not a crash
-    assert "cannot write" in window.statusBar().currentMessage()
+    assert "missing" in window.statusBar().currentMessage() and "does not exist" in window.statusBar().currentMessage()
 
 
 def test_help_lists_the_mouse_and_keyboard_controls(window, qtbot):

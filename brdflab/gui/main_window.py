@@ -23,7 +23,8 @@ from brdflab.io.mesh import default_mesh, load_mesh
 from brdflab.io.resources import data_dir
 from brdflab.fitting.samples import samples_of
 from brdflab.workspace import OPEN_FILTER, Workspace
-from brdflab.io.xmlio import atomic_write, to_bytes
+from brdflab.io.atomic import atomic_write
+from brdflab.io.xmlio import to_bytes
 from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.background import LatestOnly
 from brdflab.gui.panels import (SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel,
@@ -320,8 +321,8 @@ class MainWindow(QMainWindow):
             return False
         try:
             atomic_write(path, bytes(data))
-        except OSError as e:
-            self.show_error(f"{path}: cannot write the image ({e.strerror or e})")
+        except BRDFLabError as e:  # one line naming the file and the problem
+            self.show_error(str(e))
             return False
         self.settings.setValue("folders/image", str(path.parent))
         self.statusBar().showMessage(f"Exported {path}", 5000)
