@@ -29,6 +29,9 @@ class Lobe:
     scale: list[float]  # Linear: one factor per channel; Fixed: [value]
     channel: int | None = None  # Fixed only
     extra: list = field(default_factory=list)  # unknown XML children, kept verbatim
+    # the XML elements it was read from, (<ScalingFactors> or None, <Lobe>): a save writes
+    # its values into them, so that what was not edited keeps its exact text
+    source: object | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def create(cls, model_name: str, scale: list[float], channel: int | None = None, **params: float) -> "Lobe":
@@ -74,6 +77,7 @@ class AnalyticMaterial:
     n_channels: int = 3
     lobes: list[Lobe] = field(default_factory=list)
     extra: list = field(default_factory=list)  # unknown XML children of <Material>
+    source: object | None = field(default=None, compare=False, repr=False)  # its <Material> element
 
     kind = "Analytic"
 
@@ -118,8 +122,9 @@ class AnalyticMaterial:
             self.name,
             self.combination,
             self.n_channels,
-            [Lobe(l.model, dict(l.params), list(l.scale), l.channel, list(l.extra)) for l in self.lobes],
+            [Lobe(l.model, dict(l.params), list(l.scale), l.channel, list(l.extra), l.source) for l in self.lobes],
             list(self.extra),
+            self.source,
         )
 
     def describe(self) -> dict:
