@@ -24,8 +24,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from brdflab.errors import BRDFLabError
 from brdflab.io import xmlio
 from conftest import DATA, needs_shared
+from test_xml_fuzz import SEEDS, trees
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.workspace import Workspace, with_parameter, with_scale
 
@@ -322,6 +324,16 @@ def test_a_new_fit_is_inserted_with_the_files_indentation(tmp_path):
     assert len(again.fittings) == 2 and again.fittings[1].material.lobes[0].scale[0] == 0.5
 
 
+def test_inserted_text_gets_the_files_indentation_and_line_ends(tmp_path):
+    data = FILES["tab indentation and CRLF line ends"]
+    doc = xmlio.parse_bytes(data)
+    doc.fittings.append(xmlio.Fitting(doc.fittings[0].material.copy(), 0.5))
+    out = saved(doc, tmp_path)
+    assert out.count(b"\n") == out.count(b"\r\n") > data.count(b"\r\n")
+    assert b'\r\n\t<Fitting error="0.5"' in out and b"\r\n\t\t\t\t<ScalingFactors" in out
+    assert out.startswith(data[: data.rindex(b"</BRDF>")].rsplit(b"\t</Fitting>", 1)[0])
+
+
 def test_removing_and_moving_lobes_keeps_everything_else(tmp_path):
     from brdflab.workspace import with_lobe_moved, with_lobe_removed
 
@@ -362,6 +374,32 @@ def test_values_written_read_back_bit_for_bit(scale, cz, ax, error):
         got = (lobes[1].scale[0], lobes[1].params["Cz"], lobes[2].params["ax"], back.fittings[0].error)
         assert [math.copysign(1, g) for g in got] == [math.copysign(1, w) for w in (scale, cz, ax, error)]
         assert got == (scale, cz, ax, error)
+
+
+def _same_bytes_if_it_parses(data: bytes) -> None:
+    try:
+        doc = xmlio.parse_bytes(data, "fuzz.xml")
+    except BRDFLabError:
+        return
+    assert doc.source.mappable
+    assert xmlio.to_bytes(doc) == data
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from(SEEDS + list(FILES.values())),
+       st.lists(st.tuples(st.integers(0, 10_000), st.integers(0, 8), st.binary(max_size=6)), max_size=4))
+def test_mutated_files_that_parse_are_written_back_unchanged(seed, edits):
+    data = bytearray(seed)
+    for pos, cut, insert in edits:
+        pos %= max(len(data), 1)
+        data[pos:pos + cut] = insert
+    _same_bytes_if_it_parses(bytes(data))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(trees())
+def test_random_documents_that_parse_are_written_back_unchanged(body):
+    _same_bytes_if_it_parses(f"<BRDF>{body}</BRDF>".encode())
 
 
 # --- as a user meets it: the command line (the window: test_xml_roundtrip_gui.py) ------------

@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from test_xml_roundtrip import FILES, changed_lines, respelled
+from test_xml_roundtrip import FILES, changed_lines, respelled, variant
 
 pytestmark = pytest.mark.skipif(
     not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") not in ("offscreen",),
@@ -35,3 +35,24 @@ def test_the_window_saves_one_edit_as_one_changed_value(qtbot, tmp_path):
     assert w.save()
     lines = changed_lines(data, path.read_bytes())
     assert len(lines) == 1 and lines[0][1] in respelled(lines[0][0], "Exponent", "55.0")
+
+
+def test_the_xml_view_shows_a_latin1_file(qtbot, tmp_path):
+    """A file in ISO-8859-1 is shown as text in the XML view (not decoded as UTF-8)."""
+    from PySide6.QtCore import QSettings
+
+    from brdflab.gui.main_window import MainWindow
+
+    path = tmp_path / "latin.xml"
+    path.write_bytes(variant("an XML declaration in single quotes, ISO-8859-1"))
+    w = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat))
+    w.maybe_save = lambda: True
+    qtbot.addWidget(w)
+    w.show()
+    qtbot.waitExposed(w)
+    w._docks["XML"].show()
+    w.open_path(path)
+    qtbot.waitUntil(lambda: not w.loading, timeout=30000)
+    qtbot.waitUntil(lambda: "peinture bleue \u00e9tal\u00e9e" in w.xml.toPlainText(), timeout=5000)
+    assert w.save()
+    assert path.read_bytes() == variant("an XML declaration in single quotes, ISO-8859-1")

@@ -85,6 +85,8 @@ class Draft:
         pairs = list(zip(source.root.iter(), self.root.iter()))
         self._working = dict(pairs)  # original node -> its copy here
         self._index = {w: i for i, (_, w) in enumerate(pairs)}  # copy -> its span
+        # new text gets the file's line ends (the parser reads CR LF as LF)
+        self._newline = "\r\n" if source.mappable and "\r\n" in source.text else "\n"
 
     def own(self, original: etree._Element | None) -> etree._Element | None:
         """The copy in this draft of a node of the source tree (None for other nodes)."""
@@ -130,19 +132,22 @@ class Draft:
         if span is not None and node.text == span.text:
             out.append(text[span.tag_end:span.text_end])
         elif node.text:
-            out.append(_text(node.text))
+            out.append(self._new_text(node.text))
         for child in node:
             self._emit(child, out)
             child_span = self._span(child)
             if child_span is not None and child.tail == child_span.tail:
                 out.append(text[child_span.end:child_span.tail_end])
             elif child.tail:
-                out.append(_text(child.tail))
+                out.append(self._new_text(child.tail))
         if span is None or span.empty:
             if has_content:
                 out.append(f"</{node.tag}>")
         else:
             out.append(text[span.end_tag:span.end])
+
+    def _new_text(self, value: str) -> str:
+        return _text(value).replace("\n", self._newline)
 
     def _start_tag(self, node, span: _Span, has_content: bool) -> str:
         text = self.source.text

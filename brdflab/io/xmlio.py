@@ -540,6 +540,11 @@ def to_bytes(doc: BRDFDocument) -> bytes:
         document_element(doc), pretty_print=True, xml_declaration=True, encoding="UTF-8", doctype=doctype)
 
 
+def to_text(doc: BRDFDocument) -> str:
+    """The file text of `doc` as a string (decoded from the encoding it is written in)."""
+    return to_bytes(doc).decode(doc.source.encoding if doc.source is not None else "UTF-8")
+
+
 def atomic_write(path: str | os.PathLike, data: bytes) -> None:
     """Write `data` to `path` through a temporary file in the same folder and a rename,
     so that a crash or a full disk never leaves a half-written file behind."""
