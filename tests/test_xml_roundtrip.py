@@ -29,7 +29,7 @@ from brdflab.io import xmlio
 from conftest import DATA, needs_shared
 from test_xml_fuzz import SEEDS, trees
 from brdflab.material.analytic import AnalyticMaterial, Lobe
-from brdflab.workspace import Workspace, with_parameter, with_scale
+from brdflab.workspace import with_parameter, with_scale
 
 BASE = """<!DOCTYPE BRDF>
 <BRDF>
@@ -209,6 +209,24 @@ def test_a_document_built_in_memory_is_written_afresh_and_then_kept(tmp_path):
     first = saved(fresh, tmp_path, "a.xml")
     assert first.startswith(b"<?xml") and b"<!DOCTYPE BRDF>" in first
     assert saved(xmlio.load(tmp_path / "a.xml"), tmp_path, "b.xml") == first
+
+
+def test_values_read_from_a_file_still_go_to_other_processes():
+    """The GUI sends materials to a worker process (pickle); the link to the file's
+    elements stays behind and nothing else changes."""
+    import pickle
+
+    doc = xmlio.parse_bytes(FILES["all of them at once"])
+    for value in (doc.material, doc.fittings[0], doc):
+        back = pickle.loads(pickle.dumps(value))
+        assert back.source is None
+        assert (back.describe() if hasattr(back, "describe") else back) == (
+            value.describe() if hasattr(value, "describe") else value)
+    material = pickle.loads(pickle.dumps(doc.material))
+    assert material.lobes[2].params == {"ax": 0.12, "ay": 0.12}
+    # the unknown elements travel too: the material written afresh still holds them
+    text = xmlio.to_bytes(xmlio.BRDFDocument(material))
+    assert b"<Preview" in text and b"<Note>glossy coat</Note>" in text and b"<Measured" in text
 
 
 # --- one edit: one value's text ------------------------------------------------------------

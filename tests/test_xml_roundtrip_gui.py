@@ -29,6 +29,9 @@ def test_the_window_saves_one_edit_as_one_changed_value(qtbot, tmp_path):
     w.open_path(path)
     qtbot.waitUntil(lambda: not w.loading, timeout=30000)
     assert w.workspace.path == path
+    # the energy check runs in a worker process: the material read from the file gets there
+    qtbot.waitUntil(lambda: w.editor.energy.text().startswith("Energy"), timeout=60000)
+    assert "failed" not in w.editor.energy.text()
     assert w.save()  # Ctrl+S with nothing changed
     assert path.read_bytes() == data
     w.editor.parameter_edited.emit(1, "Exponent", 55.0)

@@ -22,7 +22,7 @@ _TOKEN = re.compile(r"""
   | (?P<pi><\?.*?\?>)
   | (?P<doctype><!DOCTYPE[^>]*>)
   | (?P<end></[^>]*>)
-  | (?P<start><[^\s/>!?][^\s/>]*(?:\s+[^\s=/>]+\s*=\s*(?:"[^"]*"|'[^']*'))*\s*/?>)
+  | (?P<start><(?P<name>[^\s/>!?][^\s/>]*)(?:\s+[^\s=/>]+\s*=\s*(?:"[^"]*"|'[^']*'))*\s*/?>)
   | (?P<text>[^<]+)
 """, re.S | re.X)
 _ATTR = re.compile(r"""(\s+)([^\s=/>]+)(\s*=\s*)(["'])(.*?)\4""", re.S)
@@ -37,8 +37,6 @@ class _Span:
     name: str
     start: int
     tag_end: int  # end of the start tag (the whole node for comments and PIs)
-    close: int = 0  # where the start tag's closing ">" or "/>" (and the spaces before it) begins
-    attrs: list = field(default_factory=list)  # (name, start incl. leading space, end, quote)
     empty: bool = False  # written as <tag .../>
     text_end: int = 0  # end of the text right after the start tag
     end_tag: int = 0  # start of the end tag
@@ -54,18 +52,30 @@ class _Unmappable(Exception):
 
 
 class SourceXML:
-    """One file's text, decoded, with the span of every node of `root` in it."""
+    """One file's text with the span of every node of `root` in it (mapped at the first
+    save, so that reading a file costs no more than parsing it)."""
 
     def __init__(self, data: bytes, root: etree._Element) -> None:
         self.root = root  # the parsed tree; never modified
         self.encoding = root.getroottree().docinfo.encoding or "UTF-8"
-        try:
-            self.text = data.decode(self.encoding)
-            if self.text.encode(self.encoding) != data:
-                raise _Unmappable("the encoding does not round-trip")
-            self.spans, self.prolog_end, self.epilogue_start = _map(self.text, root)
-        except (_Unmappable, LookupError, UnicodeError):
-            self.spans = None
+        self._data: bytes | None = data
+        self.text = ""
+        self._spans: list[_Span] | None = None
+        self.prolog_end = self.epilogue_start = 0
+
+    @property
+    def spans(self) -> list[_Span] | None:
+        """Every node's span, in document order; None for a text this map cannot follow."""
+        if self._data is not None:
+            data, self._data = self._data, None
+            try:
+                self.text = data.decode(self.encoding)
+                if self.text.encode(self.encoding) != data:
+                    raise _Unmappable("the encoding does not round-trip")
+                self._spans, self.prolog_end, self.epilogue_start = _map(self.text, self.root)
+            except (_Unmappable, LookupError, UnicodeError):
+                self._spans = None
+        return self._spans
 
     @property
     def mappable(self) -> bool:
@@ -87,6 +97,7 @@ class Draft:
         self._index = {w: i for i, (_, w) in enumerate(pairs)}  # copy -> its span
         # new text gets the file's line ends (the parser reads CR LF as LF)
         self._newline = "\r\n" if source.mappable and "\r\n" in source.text else "\n"
+        self._spans = source.spans
 
     def own(self, original: etree._Element | None) -> etree._Element | None:
         """The copy in this draft of a node of the source tree (None for other nodes)."""
@@ -97,18 +108,22 @@ class Draft:
 
     def to_bytes(self) -> bytes:
         src = self.source
-        if not src.mappable:
-            doctype = f"<!DOCTYPE {self.doctype}>" if self.doctype else None
-            return etree.tostring(self.root, xml_declaration=True, encoding=src.encoding, doctype=doctype)
-        out = [src.text[:src.prolog_end]]
-        self._emit(self.root, out)
-        out.append(src.text[src.epilogue_start:])
-        return "".join(out).encode(src.encoding, "xmlcharrefreplace")
+        if src.mappable:
+            out = [src.text[:src.prolog_end]]
+            try:
+                self._emit(self.root, out)
+            except _Unmappable:
+                pass
+            else:
+                out.append(src.text[src.epilogue_start:])
+                return "".join(out).encode(src.encoding, "xmlcharrefreplace")
+        doctype = f"<!DOCTYPE {self.doctype}>" if self.doctype else None
+        return etree.tostring(self.root, xml_declaration=True, encoding=src.encoding, doctype=doctype)
 
     # --- writing -----------------------------------------------------------------------
     def _span(self, node) -> _Span | None:
         i = self._index.get(node)
-        return None if i is None else self.source.spans[i]
+        return None if i is None else self._spans[i]
 
     def _emit(self, node, out: list[str]) -> None:
         text = self.source.text
@@ -151,26 +166,32 @@ class Draft:
 
     def _start_tag(self, node, span: _Span, has_content: bool) -> str:
         text = self.source.text
-        items = list(node.attrib.items())
+        items = node.attrib.items()
+        tag = text[span.start:span.tag_end]
+        if items == span.attrib and not (span.empty and has_content):
+            return tag
+        close = _TAG_CLOSE.search(tag).start()
         if items == span.attrib:
-            head = text[span.start:span.close]
+            head = tag[:close]
         else:
-            parts = [text[span.start:span.attrs[0][1] if span.attrs else span.close]]
+            attrs = [(a.group(2), a.start(), a.end(), a.group(4)) for a in _ATTR.finditer(tag, len(span.name) + 1, close)]
+            if [a[0] for a in attrs] != [k for k, _ in span.attrib]:
+                raise _Unmappable(f"the attributes of <{span.name}> do not match the text")
+            parts = [tag[:attrs[0][1] if attrs else close]]
             old = dict(span.attrib)
-            for name, a_start, a_end, quote in span.attrs:
+            for name, a_start, a_end, quote in attrs:
                 if name not in node.attrib:
                     continue
                 value = node.get(name)
                 if value == old[name]:
-                    parts.append(text[a_start:a_end])
+                    parts.append(tag[a_start:a_end])
                 else:
-                    raw = text[a_start:a_end]
+                    raw = tag[a_start:a_end]
                     prefix = raw[: raw.index(quote) + 1]
                     parts.append(prefix + _attr_text(value, quote) + quote)
-            known = {a[0] for a in span.attrs}
-            parts += [f' {k}="{_attr_text(v, chr(34))}"' for k, v in items if k not in known]
+            parts += [f' {k}="{_attr_text(v, chr(34))}"' for k, v in items if k not in old]
             head = "".join(parts)
-        closing = text[span.close:span.tag_end]
+        closing = tag[close:]
         if span.empty and has_content:
             closing = closing[: closing.rindex("/")] + ">"
         return head + closing
@@ -246,28 +267,22 @@ def _map(text: str, root: etree._Element) -> tuple[list[_Span], int, int]:
 
 
 def _element_span(m: re.Match) -> _Span:
-    tag = m.group()
-    start = m.start()
-    name = re.match(r"<([^\s/>]+)", tag).group(1)
-    close = start + _TAG_CLOSE.search(tag).start()
-    attrs = [(a.group(2), start + a.start(), start + a.end(), a.group(4))
-             for a in _ATTR.finditer(tag, len(name) + 1, close - start)]
-    empty = tag.endswith("/>")
-    return _Span("start", name, start, m.end(), close, attrs, empty, text_end=m.end(),
-                  end=m.end() if empty else 0, tail_end=m.end())
+    end = m.end()
+    empty = m.group().endswith("/>")
+    return _Span("start", m.group("name"), m.start(), end, empty, text_end=end, end=end if empty else 0, tail_end=end)
 
 
 def _check_against(spans: list[_Span], root: etree._Element) -> None:
-    nodes = list(root.iter())
-    if len(nodes) != len(spans):
-        raise _Unmappable("the text and the tree differ in their number of nodes")
-    for node, span in zip(nodes, spans):
+    """Each span is the node of the tree at its place (an element's attributes are checked
+    against its tag when they are rewritten)."""
+    count = 0
+    for count, (node, span) in enumerate(zip(root.iter(), spans), 1):
         if isinstance(node.tag, str):
             if span.kind != "start" or span.name != node.tag or "{" in node.tag:
                 raise _Unmappable(f"<{node.tag}> does not match the text")
-            span.attrib = list(node.attrib.items())
-            if [a[0] for a in span.attrs] != [k for k, _ in span.attrib]:
-                raise _Unmappable(f"the attributes of <{node.tag}> do not match the text")
+            span.attrib = node.attrib.items()
         elif span.kind != ("comment" if isinstance(node, etree._Comment) else "pi"):
             raise _Unmappable("a comment or processing instruction does not match the text")
         span.text, span.tail = node.text, node.tail
+    if count != len(spans) or sum(1 for _ in root.iter()) != count:
+        raise _Unmappable("the text and the tree differ in their number of nodes")

@@ -54,10 +54,10 @@ def _set_integer(el: etree._Element, name: str, value: int) -> None:
     el.set(name, str(value))
 
 
-def _set_attributes(el: etree._Element, wanted: dict[str, str], keep: set[str] = frozenset()) -> None:
-    """Make el's attributes `wanted` (plus those named in `keep`), in the file's order."""
+def _set_attributes(el: etree._Element, wanted: dict[str, str]) -> None:
+    """Make el's attributes `wanted`, those it had staying in the file's order."""
     for name in list(el.attrib):
-        if name not in wanted and name not in keep:
+        if name not in wanted:
             del el.attrib[name]
     for name, value in wanted.items():
         if el.get(name) != value:
@@ -85,9 +85,6 @@ class _Updater:
         out = copy.deepcopy(source)
         out.tail = None
         return out
-
-    def placed(self, el: etree._Element) -> bool:
-        return self.draft.is_original(el) and el.getparent() is not None
 
     def indent(self, el: etree._Element, depth: int) -> None:
         if self.unit is not None and not self.draft.is_original(el):
@@ -304,11 +301,14 @@ class _Updater:
         model_changed = model is None or (model.text or "").strip() != lobe.model.name
         self.child_text(lobe_el, "Model", lobe.model.name)
         p_el = lobe_el.find("Parameters")
-        if p_el is None:
+        if p_el is None:  # a file may leave out an empty <Parameters/>: added only when needed
             p_el = etree.Element("Parameters")
-            anchor = lobe_el.find("Type")
-            self.insert_after(lobe_el, anchor if anchor is not None else lobe_el.find("Model"), p_el)
-        changed = self.lobe_parameters(p_el, lobe, combination) or model_changed
+            changed = self.lobe_parameters(p_el, lobe, combination) or model_changed
+            if len(p_el.attrib):
+                anchor = lobe_el.find("Type")
+                self.insert_after(lobe_el, anchor if anchor is not None else lobe_el.find("Model"), p_el)
+        else:
+            changed = self.lobe_parameters(p_el, lobe, combination) or model_changed
         declared = lobe_el.find("Type")
         says = None if declared is None or declared.text is None else declared.text.strip()
         if changed and (model_changed or (says == "Isotropic" and xmlio.lobe_type(lobe) != says)):

@@ -23,7 +23,7 @@ from lxml import etree
 
 from brdflab.errors import BRDFLabError
 from brdflab.io.xml_source import SourceXML
-from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.material.analytic import AnalyticMaterial, Lobe, SourceLinked
 from brdflab.models import get_model
 
 ANALYTIC = "Analytic"
@@ -31,7 +31,7 @@ SIMULATED_TYPES = ("SCATMECH", "RayBounce")  # <Type> names the simulation libra
 
 
 @dataclass
-class MeasuredReference:
+class MeasuredReference(SourceLinked):
     """A material whose values live in a data file named relative to the XML file."""
 
     type: str
@@ -71,7 +71,7 @@ class MeasuredReference:
 
 
 @dataclass
-class SimulatedReference:
+class SimulatedReference(SourceLinked):
     """A simulated material as stored: library (<Type>), model, every parameter (as text),
     seed, ray count and table resolution; `brdflab.simulation` rebuilds it."""
 
@@ -91,7 +91,7 @@ class SimulatedReference:
 
 
 @dataclass
-class Fitting:
+class Fitting(SourceLinked):
     """A stored fit: an analytic material plus how it was obtained."""
 
     material: AnalyticMaterial
@@ -114,7 +114,7 @@ class Fitting:
 
 
 @dataclass
-class BRDFDocument:
+class BRDFDocument(SourceLinked):
     """Everything one XML file holds."""
 
     material: AnalyticMaterial | MeasuredReference | SimulatedReference

@@ -20,8 +20,56 @@ from brdflab.models import LobeModel, get_model
 Combination = Literal["Linear", "Fixed"]
 
 
+class SourceLinked:
+    """A value read from XML: it may link to the element it was read from (`source`) and
+    carry unknown elements (`extra`, a document's `info`). lxml elements do not pickle, so
+    a value sent to another process leaves the link behind and carries those elements as
+    text, parsed back on arrival."""
+
+    _CARRIED = ("extra", "info")
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["source"] = None
+        for key in self._CARRIED:
+            if key in state:
+                state[key] = _as_text(state[key])
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        for key in self._CARRIED:
+            if key in state:
+                state[key] = _from_text(state[key])
+        self.__dict__.update(state)
+
+
+class _ElementText(bytes):
+    """An XML element serialised for pickling."""
+
+
+def _as_text(value):
+    if isinstance(value, (list, tuple)):
+        return type(value)(_as_text(v) for v in value)
+    if hasattr(value, "getroottree"):  # an lxml element
+        from lxml import etree
+
+        return _ElementText(etree.tostring(value))
+    return value
+
+
+def _from_text(value):
+    if isinstance(value, (list, tuple)):
+        return type(value)(_from_text(v) for v in value)
+    if isinstance(value, _ElementText):
+        from lxml import etree
+
+        parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False)
+        return etree.fromstring(bytes(value), parser)
+    return value
+
+
 @dataclass
-class Lobe:
+class Lobe(SourceLinked):
     """One lobe of a material: a model, its parameters and its weight(s)."""
 
     model: LobeModel
@@ -69,7 +117,7 @@ class Lobe:
 
 
 @dataclass
-class AnalyticMaterial:
+class AnalyticMaterial(SourceLinked):
     """A material made of analytic lobes; evaluates to (N, n_channels) BRDF values."""
 
     name: str = "material"
