@@ -276,6 +276,20 @@ def test_an_edit_undone_gives_the_file_back(tmp_path):
     assert saved(doc, tmp_path) == data
 
 
+def test_a_file_the_map_cannot_follow_keeps_its_content(tmp_path):
+    """Namespaced content is written by lxml from the same patched tree: a declaration is
+    added, the rest is the file with its one edit."""
+    data = BASE.replace("<BRDF>", '<BRDF xmlns:x="urn:x">').replace(
+        " <Material>\n  <Name>blue", ' <x:Extra x:a="1"/>\n <Material>\n  <Name>blue').encode()
+    doc = xmlio.parse_bytes(data)
+    assert not doc.source.mappable
+    doc.material = with_parameter(doc.material, 1, "Cz", 0.6)
+    declaration, rest = saved(doc, tmp_path).split(b"\n", 1)
+    assert declaration.startswith(b"<?xml")
+    lines = changed_lines(data, rest)
+    assert len(lines) == 1 and lines[0][1] in respelled(lines[0][0], "Cz", "0.6")
+
+
 # --- Ward's <Type>: what the file said ------------------------------------------------------
 
 def ward_file(type_: str, params: str) -> bytes:

@@ -118,7 +118,7 @@ class Draft:
                 out.append(src.text[src.epilogue_start:])
                 return "".join(out).encode(src.encoding, "xmlcharrefreplace")
         doctype = f"<!DOCTYPE {self.doctype}>" if self.doctype else None
-        return etree.tostring(self.root, xml_declaration=True, encoding=src.encoding, doctype=doctype)
+        return etree.tostring(self.root, xml_declaration=True, encoding=src.encoding, doctype=doctype) + b"\n"
 
     # --- writing -----------------------------------------------------------------------
     def _span(self, node) -> _Span | None:
