@@ -90,7 +90,7 @@ class Workspace:
             raise BRDFLabError("this material names no measured data file")
         base = self.path.parent if self.path else None
         name = os.path.relpath(Path(data_path).resolve(), base.resolve()) if base else str(Path(data_path).resolve())
-        moved = MeasuredReference(ref.type, Path(name).as_posix(), base, ref.sha256, ref.extra)
+        moved = MeasuredReference(ref.type, Path(name).as_posix(), base, ref.sha256, ref.extra, ref.source)
         source = resolve_measured(moved)
         self.document.material, self.source = moved, source
         self.messages = []
@@ -195,7 +195,8 @@ def with_combination(material: AnalyticMaterial, combination: str) -> AnalyticMa
         for i, lobe in enumerate(per_channel[0]):
             scale = [ch[i].scale[0] if i < len(ch) else 0.0 for ch in per_channel]
             lobes.append(Lobe(lobe.model, dict(lobe.params), scale))
-    return AnalyticMaterial(material.name, combination, material.n_channels, lobes, list(material.extra))
+    return AnalyticMaterial(material.name, combination, material.n_channels, lobes, list(material.extra),
+                            material.source)
 
 
 def with_channels(material: AnalyticMaterial, n: int) -> AnalyticMaterial:

@@ -72,7 +72,7 @@ def test_a_brdflab_file_opens_in_info_and_keeps_its_doctype(brdflab_file, tmp_pa
     doc = xmlio.load(brdflab_file)
     assert doc.doctype == "BRDF"
     xmlio.save(doc, tmp_path / "again.xml")
-    assert (tmp_path / "again.xml").read_bytes().splitlines()[1] == b"<!DOCTYPE BRDF>"
+    assert (tmp_path / "again.xml").read_bytes() == BRDFLAB_FILE  # the same file, DOCTYPE line first
     assert xmlio.load(tmp_path / "again.xml").doctype == "BRDF"
 
 

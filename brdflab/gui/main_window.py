@@ -24,7 +24,7 @@ from brdflab.io.resources import data_dir
 from brdflab.fitting.samples import samples_of
 from brdflab.workspace import OPEN_FILTER, Workspace
 from brdflab.io.atomic import atomic_write
-from brdflab.io.xmlio import to_bytes
+from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.background import LatestOnly
 from brdflab.gui.panels import (SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel,
@@ -454,7 +454,7 @@ class MainWindow(QMainWindow):
         """The XML text, only while someone can see it (it costs a serialisation)."""
         self._xml_stale = not (self._docks["XML"].isVisible() or self.xml.toPlainText() == "")
         if not self._xml_stale:
-            self.xml.setPlainText(to_bytes(self.workspace.document).decode())
+            self.xml.setPlainText(to_text(self.workspace.document))
 
     @Slot(bool)
     def _xml_dock_shown(self, shown: bool) -> None:

@@ -1,9 +1,11 @@
 """BRDFLab (2009) XML materials: read and write, losslessly and safely.
 
 Layout (../shared/CONVENTIONS.md): <BRDF> holds an <Info>, one <Material> and any
-number of <Fitting>s. Unknown elements are reported as warnings and written back
-unchanged (at the end of the element that held them). Parsing never resolves
-entities, loads DTDs or touches the network; saving is atomic.
+number of <Fitting>s. Unknown elements are reported as warnings and kept. A document
+read from a file keeps that file's text and tree (`BRDFDocument.source`): saving writes
+the current values into them (brdflab.io.xml_update), so that what did not change is
+written back byte for byte. Parsing never resolves entities, loads DTDs or touches the
+network; saving is atomic.
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ from lxml import etree
 
 from brdflab.errors import BRDFLabError
 from brdflab.io.atomic import atomic_write
-from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.io.xml_source import SourceXML
+from brdflab.material.analytic import AnalyticMaterial, Lobe, SourceLinked
 from brdflab.models import get_model
 
 ANALYTIC = "Analytic"
@@ -28,7 +31,7 @@ SIMULATED_TYPES = ("SCATMECH", "RayBounce")  # <Type> names the simulation libra
 
 
 @dataclass
-class MeasuredReference:
+class MeasuredReference(SourceLinked):
     """A material whose values live in a data file named relative to the XML file."""
 
     type: str
@@ -36,6 +39,7 @@ class MeasuredReference:
     base_dir: Path | None = None
     sha256: str | None = None
     extra: list = field(default_factory=list)
+    source: object | None = field(default=None, compare=False, repr=False)  # its <Material> element
 
     kind = "Measured"
 
@@ -67,7 +71,7 @@ class MeasuredReference:
 
 
 @dataclass
-class SimulatedReference:
+class SimulatedReference(SourceLinked):
     """A simulated material as stored: library (<Type>), model, every parameter (as text),
     seed, ray count and table resolution; `brdflab.simulation` rebuilds it."""
 
@@ -77,6 +81,7 @@ class SimulatedReference:
     parameters: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)  # seed, samples, resolution (text)
     extra: list = field(default_factory=list)
+    source: object | None = field(default=None, compare=False, repr=False)  # its <Material> element
 
     kind = "Simulated"
 
@@ -86,7 +91,7 @@ class SimulatedReference:
 
 
 @dataclass
-class Fitting:
+class Fitting(SourceLinked):
     """A stored fit: an analytic material plus how it was obtained."""
 
     material: AnalyticMaterial
@@ -96,6 +101,7 @@ class Fitting:
     statistics: dict = field(default_factory=dict)  # metric, seconds, iterations, ...
     attributes: dict = field(default_factory=dict)  # unknown attributes of <Fitting>
     extra: list = field(default_factory=list)
+    source: object | None = field(default=None, compare=False, repr=False)  # its <Fitting> element
 
     def describe(self) -> dict:
         return {
@@ -108,7 +114,7 @@ class Fitting:
 
 
 @dataclass
-class BRDFDocument:
+class BRDFDocument(SourceLinked):
     """Everything one XML file holds."""
 
     material: AnalyticMaterial | MeasuredReference | SimulatedReference
@@ -118,6 +124,7 @@ class BRDFDocument:
     path: Path | None = None
     warnings: list[str] = field(default_factory=list)
     doctype: str | None = None  # the name of a bare <!DOCTYPE NAME> line, kept on save
+    source: SourceXML | None = field(default=None, compare=False, repr=False)  # the file as read
 
     def describe(self) -> dict:
         return {
@@ -133,7 +140,7 @@ class BRDFDocument:
 
 _PARSER_OPTIONS = dict(
     resolve_entities=False, no_network=True, load_dtd=False, dtd_validation=False, huge_tree=False,
-    remove_blank_text=True,
+    remove_blank_text=False,  # the file's layout is kept for saving it back
 )
 
 
@@ -187,8 +194,11 @@ class _Reader:
         for child in root:
             if not isinstance(child.tag, str):
                 continue  # comments, processing instructions
-            if child.tag == "Info":
+            if child.tag == "Info" and info is None:
                 info = copy.deepcopy(child)
+            elif child.tag == "Info":
+                self.warnings.append(f"line {child.sourceline}: a second <Info> in <BRDF> kept as is")
+                extra.append(copy.deepcopy(child))
             elif child.tag == "Material":
                 if material is not None:
                     raise self.fail(child, "a file holds one <Material>; found a second one")
@@ -231,6 +241,7 @@ class _Reader:
             statistics,
             {k: v for k, v in el.attrib.items() if k not in known},
             extra,
+            el,
         )
 
     def material(self, el: etree._Element) -> AnalyticMaterial | MeasuredReference:
@@ -246,7 +257,7 @@ class _Reader:
             checksum = el.find("Checksum")
             sha = checksum.text.strip() if checksum is not None and checksum.text else None
             extra = self.leftovers(el, known, "Material")
-            return MeasuredReference(mtype, name, self.base_dir, sha, extra)
+            return MeasuredReference(mtype, name, self.base_dir, sha, extra, el)
         combination = self.text(el, "LobeCombination")
         if combination not in ("Linear", "Fixed"):
             raise self.fail(el.find("LobeCombination"), f"LobeCombination must be Linear or Fixed, not {combination!r}")
@@ -261,7 +272,7 @@ class _Reader:
         if len(lobes) != n_lobes:
             raise self.fail(params, f"nLobes={n_lobes} but {len(lobes)} <Lobe> elements")
         extra = self.leftovers(el, known | {"LobeCombination", "Parameters"}, "Material")
-        mat = AnalyticMaterial(name or "material", combination, n_channels, lobes, extra)
+        mat = AnalyticMaterial(name or "material", combination, n_channels, lobes, extra, el)
         try:
             mat.validate()
         except BRDFLabError as e:
@@ -276,7 +287,7 @@ class _Reader:
         params = {} if p_el is None else dict(p_el.attrib)
         settings = {k: v for k, v in sim.attrib.items() if k != "model"}
         extra = self.leftovers(el, {"Name", "Type", "Simulation"}, "Material")
-        return SimulatedReference(mtype, name or sim.get("model"), sim.get("model"), params, settings, extra)
+        return SimulatedReference(mtype, name or sim.get("model"), sim.get("model"), params, settings, extra, el)
 
     def leftovers(self, el: etree._Element, known: set[str], parent: str) -> list:
         out = []
@@ -289,6 +300,8 @@ class _Reader:
     def lobes(self, params: etree._Element, combination: str, n_channels: int) -> list[Lobe]:
         lobes: list[Lobe] = []
         pending_scale: list[float] | None = None
+        pending_el = None
+        leading = []  # unknown elements before the first lobe: written before it
         for child in params:
             if not isinstance(child.tag, str):
                 continue
@@ -298,20 +311,25 @@ class _Reader:
                 if pending_scale is not None:
                     raise self.fail(child, "two <ScalingFactors> in a row")
                 pending_scale = self.scaling_factors(child, n_channels)
+                pending_el = child
             elif child.tag == "Lobe":
                 if combination == "Linear":
                     if pending_scale is None:
                         raise self.fail(child, "in a Linear material each <Lobe> follows its <ScalingFactors>")
-                    lobes.append(self.lobe(child, combination, pending_scale))
-                    pending_scale = None
+                    lobes.append(self.lobe(child, combination, pending_scale, pending_el))
+                    pending_scale = pending_el = None
                 else:
-                    lobes.append(self.lobe(child, combination, None))
+                    lobes.append(self.lobe(child, combination, None, None))
             else:
                 self.unknown(child, "Parameters")
                 if lobes:
                     lobes[-1].extra.append(("Parameters", copy.deepcopy(child)))
+                else:
+                    leading.append(("Before", copy.deepcopy(child)))
         if pending_scale is not None:
             raise self.fail(params, "<ScalingFactors> without a following <Lobe>")
+        if lobes:
+            lobes[0].extra[:0] = leading
         return lobes
 
     def scaling_factors(self, el: etree._Element, n_channels: int) -> list[float]:
@@ -324,7 +342,8 @@ class _Reader:
             raise self.fail(el, f"missing {', '.join(missing)} ({n_channels} channels)")
         return [self.number(el, n, el.get(n)) for n in names]
 
-    def lobe(self, el: etree._Element, combination: str, scale: list[float] | None) -> Lobe:
+    def lobe(self, el: etree._Element, combination: str, scale: list[float] | None,
+             scale_el: etree._Element | None) -> Lobe:
         model_name = self.text(el, "Model")
         try:
             model = get_model(model_name)
@@ -342,7 +361,7 @@ class _Reader:
                 value = 1.0
             scale = [value]
         params = model.complete(given)
-        lobe = Lobe(model, params, list(scale), channel)
+        lobe = Lobe(model, params, list(scale), channel, source=(scale_el, el))
         try:
             lobe.validate()
         except BRDFLabError as e:
@@ -378,6 +397,7 @@ def parse_bytes(data: bytes, path: Path | str | None = None, base_dir: Path | No
         raise BRDFLabError("entity references are not accepted in material files", path)
     doc = reader.document(root)
     doc.doctype = doctype
+    doc.source = SourceXML(data, root)
     return doc
 
 
@@ -420,7 +440,34 @@ def _num(v: float) -> str:
     return repr(float(v))
 
 
-def material_element(material: AnalyticMaterial | MeasuredReference) -> etree._Element:
+def lobe_type(lobe: Lobe) -> str:
+    """What <Type> says of a lobe: Isotropic unless its parameters make it anisotropic."""
+    return "Isotropic" if lobe.model.is_isotropic(lobe.params) else "Anisotropic"
+
+
+def lobe_elements(lobe: Lobe, combination: str) -> list[etree._Element]:
+    """A new lobe's elements: its <ScalingFactors> (Linear) and its <Lobe>, with the unknown
+    elements read before and after them."""
+    out = [copy.deepcopy(x) for where, x in lobe.extra if where == "Before"]
+    if combination == "Linear":
+        out.append(etree.Element("ScalingFactors", {f"channel{c}": _num(s) for c, s in enumerate(lobe.scale)}))
+    lobe_el = etree.Element("Lobe")
+    if combination == "Fixed":
+        lobe_el.set("channel", str(lobe.channel))
+    etree.SubElement(lobe_el, "Model").text = lobe.model.name
+    etree.SubElement(lobe_el, "Type").text = lobe_type(lobe)
+    attrs = {k: _num(lobe.params[k]) for k in lobe.model.parameter_names}
+    if combination == "Fixed":
+        attrs["value"] = _num(lobe.scale[0])
+    etree.SubElement(lobe_el, "Parameters", attrs)
+    lobe_el.extend(copy.deepcopy(x) for where, x in lobe.extra if where == "Lobe")
+    out.append(lobe_el)
+    out.extend(copy.deepcopy(x) for where, x in lobe.extra if where == "Parameters")
+    return out
+
+
+def material_element(material: AnalyticMaterial | MeasuredReference | SimulatedReference) -> etree._Element:
+    """A new <Material> element holding `material`."""
     el = etree.Element("Material")
     etree.SubElement(el, "Name").text = material.name
     if isinstance(material, SimulatedReference):
@@ -442,26 +489,33 @@ def material_element(material: AnalyticMaterial | MeasuredReference) -> etree._E
         el, "Parameters", nChannels=str(material.n_channels), nLobes=str(len(material.lobes))
     )
     for lobe in material.lobes:
-        if material.combination == "Linear":
-            etree.SubElement(
-                params, "ScalingFactors", {f"channel{c}": _num(s) for c, s in enumerate(lobe.scale)}
-            )
-        lobe_el = etree.SubElement(params, "Lobe")
-        if material.combination == "Fixed":
-            lobe_el.set("channel", str(lobe.channel))
-        etree.SubElement(lobe_el, "Model").text = lobe.model.name
-        etree.SubElement(lobe_el, "Type").text = "Isotropic" if lobe.model.isotropic else "Anisotropic"
-        attrs = {k: _num(lobe.params[k]) for k in lobe.model.parameter_names}
-        if material.combination == "Fixed":
-            attrs["value"] = _num(lobe.scale[0])
-        etree.SubElement(lobe_el, "Parameters", attrs)
-        for where, extra in lobe.extra:
-            (lobe_el if where == "Lobe" else params).append(copy.deepcopy(extra))
+        params.extend(lobe_elements(lobe, material.combination))
     el.extend(copy.deepcopy(x) for x in material.extra)
     return el
 
 
+def fitting_attributes(fit: Fitting) -> dict[str, str]:
+    attrs = {}
+    if fit.error is not None:
+        attrs["error"] = _num(fit.error)
+    attrs["readOnly"] = "1" if fit.read_only else "0"
+    attrs["optimizerName"] = fit.optimizer
+    attrs.update(fit.attributes)
+    return attrs
+
+
+def fitting_element(fit: Fitting) -> etree._Element:
+    """A new <Fitting> element holding `fit`."""
+    f_el = etree.Element("Fitting", fitting_attributes(fit))
+    f_el.append(material_element(fit.material))
+    if fit.statistics:
+        etree.SubElement(f_el, "FitStatistics", {k: str(v) for k, v in fit.statistics.items()})
+    f_el.extend(copy.deepcopy(x) for x in fit.extra)
+    return f_el
+
+
 def document_element(doc: BRDFDocument) -> etree._Element:
+    """A new <BRDF> element holding `doc` (for documents not read from a file)."""
     root = etree.Element("BRDF")
     if doc.info is not None:
         root.append(copy.deepcopy(doc.info))
@@ -469,26 +523,26 @@ def document_element(doc: BRDFDocument) -> etree._Element:
         info = etree.SubElement(root, "Info")
         etree.SubElement(info, "Program").text = "brdflab"
     root.append(material_element(doc.material))
-    for fit in doc.fittings:
-        attrs = {}
-        if fit.error is not None:
-            attrs["error"] = _num(fit.error)
-        attrs["readOnly"] = "1" if fit.read_only else "0"
-        attrs["optimizerName"] = fit.optimizer
-        attrs.update(fit.attributes)
-        f_el = etree.SubElement(root, "Fitting", attrs)
-        f_el.append(material_element(fit.material))
-        if fit.statistics:
-            etree.SubElement(f_el, "FitStatistics", {k: str(v) for k, v in fit.statistics.items()})
-        f_el.extend(copy.deepcopy(x) for x in fit.extra)
+    root.extend(fitting_element(fit) for fit in doc.fittings)
     root.extend(copy.deepcopy(x) for x in doc.extra)
     return root
 
 
 def to_bytes(doc: BRDFDocument) -> bytes:
+    """The file text of `doc`: for a document read from a file, that file with the current
+    values written into it (byte for byte the same where nothing changed)."""
+    if doc.source is not None:
+        from brdflab.io.xml_update import updated_draft
+
+        return updated_draft(doc).to_bytes()
     doctype = f"<!DOCTYPE {doc.doctype}>" if doc.doctype else None
     return etree.tostring(
         document_element(doc), pretty_print=True, xml_declaration=True, encoding="UTF-8", doctype=doctype)
+
+
+def to_text(doc: BRDFDocument) -> str:
+    """The file text of `doc` as a string (decoded from the encoding it is written in)."""
+    return to_bytes(doc).decode(doc.source.encoding if doc.source is not None else "UTF-8")
 
 
 def save(doc: BRDFDocument, path: str | os.PathLike) -> None:
@@ -509,4 +563,4 @@ def _rebase(ref: MeasuredReference, new_dir: Path) -> MeasuredReference:
         rel = os.path.relpath(target.resolve(), new_dir.resolve())
     except ValueError:
         rel = str(target.resolve())
-    return MeasuredReference(ref.type, Path(rel).as_posix(), new_dir, ref.sha256, ref.extra)
+    return MeasuredReference(ref.type, Path(rel).as_posix(), new_dir, ref.sha256, ref.extra, ref.source)

@@ -20,8 +20,56 @@ from brdflab.models import LobeModel, get_model
 Combination = Literal["Linear", "Fixed"]
 
 
+class SourceLinked:
+    """A value read from XML: it may link to the element it was read from (`source`) and
+    carry unknown elements (`extra`, a document's `info`). lxml elements do not pickle, so
+    a value sent to another process leaves the link behind and carries those elements as
+    text, parsed back on arrival."""
+
+    _CARRIED = ("extra", "info")
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["source"] = None
+        for key in self._CARRIED:
+            if key in state:
+                state[key] = _as_text(state[key])
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        for key in self._CARRIED:
+            if key in state:
+                state[key] = _from_text(state[key])
+        self.__dict__.update(state)
+
+
+class _ElementText(bytes):
+    """An XML element serialised for pickling."""
+
+
+def _as_text(value):
+    if isinstance(value, (list, tuple)):
+        return type(value)(_as_text(v) for v in value)
+    if hasattr(value, "getroottree"):  # an lxml element
+        from lxml import etree
+
+        return _ElementText(etree.tostring(value))
+    return value
+
+
+def _from_text(value):
+    if isinstance(value, (list, tuple)):
+        return type(value)(_from_text(v) for v in value)
+    if isinstance(value, _ElementText):
+        from lxml import etree
+
+        parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False)
+        return etree.fromstring(bytes(value), parser)
+    return value
+
+
 @dataclass
-class Lobe:
+class Lobe(SourceLinked):
     """One lobe of a material: a model, its parameters and its weight(s)."""
 
     model: LobeModel
@@ -29,6 +77,9 @@ class Lobe:
     scale: list[float]  # Linear: one factor per channel; Fixed: [value]
     channel: int | None = None  # Fixed only
     extra: list = field(default_factory=list)  # unknown XML children, kept verbatim
+    # the XML elements it was read from, (<ScalingFactors> or None, <Lobe>): a save writes
+    # its values into them, so that what was not edited keeps its exact text
+    source: object | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def create(cls, model_name: str, scale: list[float], channel: int | None = None, **params: float) -> "Lobe":
@@ -66,7 +117,7 @@ class Lobe:
 
 
 @dataclass
-class AnalyticMaterial:
+class AnalyticMaterial(SourceLinked):
     """A material made of analytic lobes; evaluates to (N, n_channels) BRDF values."""
 
     name: str = "material"
@@ -74,6 +125,7 @@ class AnalyticMaterial:
     n_channels: int = 3
     lobes: list[Lobe] = field(default_factory=list)
     extra: list = field(default_factory=list)  # unknown XML children of <Material>
+    source: object | None = field(default=None, compare=False, repr=False)  # its <Material> element
 
     kind = "Analytic"
 
@@ -118,8 +170,9 @@ class AnalyticMaterial:
             self.name,
             self.combination,
             self.n_channels,
-            [Lobe(l.model, dict(l.params), list(l.scale), l.channel, list(l.extra)) for l in self.lobes],
+            [Lobe(l.model, dict(l.params), list(l.scale), l.channel, list(l.extra), l.source) for l in self.lobes],
             list(self.extra),
+            self.source,
         )
 
     def describe(self) -> dict:

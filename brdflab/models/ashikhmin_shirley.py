@@ -20,6 +20,7 @@ _EXP = dict(lower=0.0, upper=100000.0, unit="1", log=True)
 class AshikhminShirley(LobeModel):
     name = "AshikhminShirley"
     isotropic = False
+    isotropic_when_equal = ('nu', 'nv')
     parameters = (
         Parameter("nu", 100.0, doc="exponent along the tangent", **_EXP),
         Parameter("nv", 100.0, doc="exponent along the bitangent", **_EXP),

@@ -54,6 +54,8 @@ class LobeModel:
     name: ClassVar[str]
     parameters: ClassVar[tuple[Parameter, ...]] = ()
     isotropic: ClassVar[bool] = True
+    # an anisotropic model's two parameters that, when equal, make the lobe isotropic
+    isotropic_when_equal: ClassVar[tuple[str, str] | None] = None
     reciprocal: ClassVar[bool] = True
     sampling: ClassVar[str | None] = None  # how wi is importance-sampled, or None
     summary: ClassVar[str] = ""
@@ -80,6 +82,13 @@ class LobeModel:
             if p.name == name:
                 return p
         raise KeyError(name)
+
+    def is_isotropic(self, params: Mapping[str, float]) -> bool:
+        """Whether a lobe with these parameters is isotropic (what a file's <Type> says)."""
+        if self.isotropic:
+            return True
+        pair = self.isotropic_when_equal
+        return pair is not None and params[pair[0]] == params[pair[1]]
 
     def complete(self, given: Mapping[str, float]) -> dict[str, float]:
         """Parameters read from a file, with the model's historical aliases resolved.

@@ -19,6 +19,7 @@ from brdflab.models.registry import register
 class Kurt(LobeModel):
     name = "Kurt"
     isotropic = False
+    isotropic_when_equal = ('mx', 'my')
     reciprocal = False  # reciprocal only when alpha = 1
     parameters = (
         Parameter("mx", 0.2, 0.001, 1.0, "1", "RMS slope along the tangent", log=True),

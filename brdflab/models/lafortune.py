@@ -60,6 +60,7 @@ class LafortuneIso(_Lafortune):
 class LafortuneAniso(_Lafortune):
     name = "LafortuneAniso"
     isotropic = False
+    isotropic_when_equal = ('Cx', 'Cy')
     parameters = (
         Parameter("Cx", -0.577, doc="weight of the tangent component", **_C),
         Parameter("Cy", -0.577, doc="weight of the bitangent component", **_C),

@@ -12,6 +12,7 @@ _ROUGH = dict(lower=0.001, upper=1.0, unit="1")
 
 class _WardFamily(LobeModel):
     isotropic = False
+    isotropic_when_equal = ('ax', 'ay')
     parameters = (
         Parameter("ax", 0.1, doc="RMS slope along the tangent", log=True, **_ROUGH),
         Parameter("ay", 0.1, doc="RMS slope along the bitangent", log=True, **_ROUGH),
