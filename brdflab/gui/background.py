@@ -79,3 +79,98 @@ class LatestOnly(QObject):
             self._pool.shutdown(wait=False, cancel_futures=True)
             self._pool = None
         self._future, self._pending = None, _NOTHING
+
+
+def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
+    """The child's side of FitProcess: samples, the fit, and its reports through `messages`
+    (progress at most every 50 ms, always the newest)."""
+    import time
+
+    from brdflab.errors import BRDFLabError
+    from brdflab.fitting.lm import fit
+    from brdflab.fitting.samples import samples_of
+
+    last = [0.0]
+
+    def progress(p) -> None:
+        now = time.monotonic()
+        if now - last[0] >= 0.05:
+            last[0] = now
+            messages.put(("progress", p))
+
+    try:
+        samples = samples_of(source, **sampling)
+        messages.put(("started", samples.size))
+        messages.put(("finished", fit(start, samples, options, progress=progress, cancel=cancel)))
+    except BRDFLabError as e:
+        messages.put(("failed", str(e)))
+    except Exception as e:  # a bug in the worker must not take the window down
+        messages.put(("failed", f"the fit failed: {type(e).__name__}: {e}"))
+
+
+class FitProcess(QObject):
+    """One fit in a worker process (the LM loop holds the GIL: in a thread it froze the
+    window); progress, the result or the error come back as signals on the GUI thread.
+    `cancel.set()` stops it, and the best result so far still arrives as `finished`."""
+
+    started = Signal(int)  # samples to fit
+    progress = Signal(object)
+    finished = Signal(object)
+    failed = Signal(str)
+
+    def __init__(self, start, source, sampling: dict, options, parent: QObject | None = None) -> None:
+        super().__init__(parent)
+        context = multiprocessing.get_context("spawn")
+        self.options = options
+        self.cancel = context.Event()
+        self._messages = context.Queue()
+        self._process = context.Process(target=_run_fit, daemon=True,
+                                        args=(start, source, sampling, options, self._messages, self.cancel))
+        self._poll = QTimer(self, interval=30)
+        self._poll.timeout.connect(self._check)
+
+    def start(self) -> None:
+        self._process.start()
+        self._poll.start()
+
+    @property
+    def running(self) -> bool:
+        return self._poll.isActive()
+
+    def _check(self) -> None:
+        import queue
+
+        latest = None
+        while True:
+            try:
+                kind, value = self._messages.get_nowait()
+            except queue.Empty:
+                break
+            if kind == "progress":
+                latest = value  # only the newest report is shown
+                continue
+            if latest is not None:
+                self.progress.emit(latest)
+                latest = None
+            if kind == "started":
+                self.started.emit(value)
+            else:
+                self._end()
+                (self.finished if kind == "finished" else self.failed).emit(value)
+                return
+        if latest is not None:
+            self.progress.emit(latest)
+        if not self._process.is_alive() and self._messages.empty():
+            self._end()
+            self.failed.emit(f"the fit's worker process ended unexpectedly (exit code {self._process.exitcode})")
+
+    def _end(self) -> None:
+        self._poll.stop()
+        self._process.join(timeout=5)
+
+    def kill(self) -> None:
+        """The window is closing: no result is wanted."""
+        self._poll.stop()
+        if self._process.is_alive():
+            self._process.kill()
+            self._process.join(timeout=5)

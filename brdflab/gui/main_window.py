@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
+from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QSettings, Qt, QTimer, Slot
 from PySide6.QtGui import QAction, QKeySequence, QUndoCommand, QUndoStack
 from PySide6.QtWidgets import (QDockWidget, QFileDialog, QLabel, QMainWindow, QMessageBox, QProgressBar, QPushButton,
                                QScrollArea, QSplitter, QVBoxLayout, QWidget)
@@ -16,17 +15,16 @@ from brdflab.gui.export_dialog import export_dialog
 from brdflab import workspace as ws_ops
 from brdflab.lighting.envmap import load_environment
 from brdflab.errors import BRDFLabError
-from brdflab.fitting.lm import FitOptions, FitProgress, FitResult, fit, material_from_lobes
+from brdflab.fitting.lm import FitOptions, FitProgress, FitResult, material_from_lobes
 from brdflab.fitting.stored import fitting_of
 from brdflab.io.mesh import FORMATS as MESH_FORMATS
 from brdflab.io.mesh import default_mesh, load_mesh
 from brdflab.io.resources import data_dir
-from brdflab.fitting.samples import samples_of
 from brdflab.workspace import OPEN_FILTER, Workspace
 from brdflab.io.atomic import atomic_write
 from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
-from brdflab.gui.background import LatestOnly
+from brdflab.gui.background import FitProcess, LatestOnly
 from brdflab.gui.panels import (SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel,
                                 XmlView, energy_summaries)
 from brdflab.material.diagnostics import energy_words, parameters_at_bounds
@@ -58,6 +56,34 @@ def _scrolling(widget: QWidget) -> QScrollArea:
     area.setFrameShape(QScrollArea.NoFrame)
     area.setWidget(widget)
     return area
+
+
+class _ViewsArea(QWidget):
+    """The two views, with the warnings banner laid over their top edge: a banner that comes
+    and goes never resizes the views (nor restarts their rendering)."""
+
+    def __init__(self, views: QWidget) -> None:
+        super().__init__()
+        column = QVBoxLayout(self)
+        column.setContentsMargins(0, 0, 0, 0)
+        column.addWidget(views)
+        self.banner = QLabel(self, wordWrap=True, textFormat=Qt.RichText, visible=False)
+        self.banner.setObjectName("warnings")
+        self.banner.setStyleSheet("QLabel#warnings { background: rgba(90, 66, 16, 225); color: #ffe9b0; padding: 4px; }")
+
+    def show_banner(self, html: str) -> None:
+        self.banner.setText(html)
+        self.banner.setVisible(bool(html))
+        self._place_banner()
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        self._place_banner()
+
+    def _place_banner(self) -> None:  # over the views' top edge, as tall as its text
+        width = self.width()
+        self.banner.setGeometry(0, 0, width, self.banner.heightForWidth(width))
+        self.banner.raise_()
 
 
 class ReplaceMaterial(QUndoCommand):
@@ -99,30 +125,6 @@ class ReplaceFittings(QUndoCommand):
         self.window.fittings_changed()
 
 
-class FitWorker(QObject):
-    """Runs one fit off the GUI thread; progress and the result come back as signals."""
-
-    progress = Signal(object)
-    finished = Signal(object)
-    failed = Signal(str)
-
-    def __init__(self, start, samples, options: FitOptions) -> None:
-        super().__init__()
-        self.start, self.samples, self.options = start, samples, options
-        self.cancel = threading.Event()
-
-    @Slot()
-    def run(self) -> None:
-        try:
-            result = fit(self.start, self.samples, self.options, progress=self.progress.emit, cancel=self.cancel)
-        except BRDFLabError as e:
-            self.failed.emit(str(e))
-        except Exception as e:  # a bug in a worker must not take the window down
-            self.failed.emit(f"the fit failed: {type(e).__name__}: {e}")
-        else:
-            self.finished.emit(result)
-
-
 class MainWindow(QMainWindow):
     def __init__(self, settings: QSettings | None = None) -> None:
         super().__init__()
@@ -135,8 +137,7 @@ class MainWindow(QMainWindow):
         self.undo_stack.indexChanged.connect(self._index_changed)
         self._unsaved_at_clean = False  # a new document (e.g. opened data) that no file holds yet
         self.workspace = Workspace.new()
-        self._thread: QThread | None = None
-        self._worker: FitWorker | None = None
+        self._thread: FitProcess | None = None  # the running fit
         self._candidate = None
         self._loader = ThreadPoolExecutor(max_workers=1)
         self._loads: list = []
@@ -168,15 +169,8 @@ class MainWindow(QMainWindow):
         self.views.setChildrenCollapsible(False)
         self.views.setStretchFactor(0, 3)
         self.views.setStretchFactor(1, 2)
-        self.warnings = QLabel(wordWrap=True, textFormat=Qt.RichText, visible=False)
-        self.warnings.setObjectName("warnings")
-        self.warnings.setStyleSheet("QLabel#warnings { background: #5a4210; color: #ffe9b0; padding: 4px; }")
-        central = QWidget()
-        column = QVBoxLayout(central)
-        column.setContentsMargins(0, 0, 0, 0)
-        column.setSpacing(0)
-        column.addWidget(self.warnings)
-        column.addWidget(self.views, 1)
+        central = self._views_area = _ViewsArea(self.views)
+        self.warnings = central.banner
         self.setCentralWidget(central)
         self._docks = {}
         for name, widget, area in (
@@ -368,8 +362,8 @@ class MainWindow(QMainWindow):
 
     # --- workspace ------------------------------------------------------------------------------
     def set_workspace(self, workspace: Workspace) -> None:
-        if self._worker is not None and workspace is not self._fit_owner:
-            self._worker.cancel.set()  # the running fit belongs to the document being closed
+        if self._thread is not None and workspace is not self._fit_owner:
+            self._thread.cancel.set()  # the running fit belongs to the document being closed
         if workspace is not self.workspace:
             self._fit_history = []
         self.workspace = workspace
@@ -409,8 +403,7 @@ class MainWindow(QMainWindow):
             self._warnings[topic] = text
         else:
             self._warnings.pop(topic, None)
-        self.warnings.setText("<br>".join(f"⚠ {t}" for t in self._warnings.values()))
-        self.warnings.setVisible(bool(self._warnings))
+        self._views_area.show_banner("<br>".join(f"⚠ {t}" for t in self._warnings.values()))
 
     def _editable_energy_known(self, summary) -> None:
         whose = "This material" if self.workspace.analytic is not None else "The initial guess"
@@ -771,8 +764,7 @@ class MainWindow(QMainWindow):
             return
         self.stop_fit()
         if self._thread is not None:
-            self._thread.quit()
-            self._thread.wait(5000)
+            self._thread.kill()
         self.editor.shutdown()
         self.plots.shutdown()
         self._fits_energy_job.shutdown()
@@ -803,34 +795,32 @@ class MainWindow(QMainWindow):
                 start = guess.copy()  # the guess the user edited
             if start is None:
                 start = material_from_lobes(lobes, combination, source.n_channels)
-            samples = samples_of(source, kind, size=size, density=45)
         except BRDFLabError as e:
             self.show_error(str(e))
             return
         options = FitOptions(metric=metric)
         self._fit_owner = self.workspace
         self._fit_history = []
-        self._worker = FitWorker(start, samples, options)
-        self._thread = QThread(self)
-        self._worker.moveToThread(self._thread)
-        self._thread.started.connect(self._worker.run)
-        self._worker.progress.connect(self._fit_progress)
-        self._worker.finished.connect(self._fit_finished)
-        self._worker.failed.connect(self._fit_failed)
+        # the samples are drawn and the fit runs in a worker process: the window stays live
+        self._thread = FitProcess(start, source, {"kind": kind, "size": size, "density": 45}, options, self)
+        self._thread.started.connect(lambda n: self.fitting.status.setText(f"fitting {n} samples…"))
+        self._thread.progress.connect(self._fit_progress)
+        self._thread.finished.connect(self._fit_finished)
+        self._thread.failed.connect(self._fit_failed)
         self._thread.start()
         self.fitting.set_running(True)
-        self.fitting.status.setText(f"fitting {samples.size} samples…")
+        self.fitting.status.setText("starting the fit…")
 
     def stop_fit(self) -> None:
-        if self._worker is not None:
-            self._worker.cancel.set()
+        if self._thread is not None:
+            self._thread.cancel.set()
 
     def _fit_progress(self, p: FitProgress) -> None:
         self._candidate = p.material
         self._fit_history.append((p.iteration, p.error))
         if not self._plot_timer.isActive():  # the convergence plot follows the fit, coalesced
             self._plot_timer.start()
-        self.fitting.status.setText(f"{p.stage}: iteration {p.iteration}, {self._worker.options.metric} error {p.error:.6g}")
+        self.fitting.status.setText(f"{p.stage}: iteration {p.iteration}, {self._thread.options.metric} error {p.error:.6g}")
         self._push_lobe_sources()
         if self.object_controls.shown.currentText() != "original":
             self._push_object_source()
@@ -838,9 +828,7 @@ class MainWindow(QMainWindow):
     def _end_fit(self) -> None:
         self.fitting.set_running(False)
         self._candidate = None
-        thread, self._thread, self._worker = self._thread, None, None
-        thread.quit()
-        thread.wait()
+        self._thread = None
 
     def _fit_finished(self, result: FitResult) -> None:
         owner, self._fit_owner = self._fit_owner, None
