@@ -814,6 +814,7 @@ class MainWindow(QMainWindow):
     def stop_fit(self) -> None:
         if self._thread is not None:
             self._thread.cancel.set()
+            self.fitting.status.setText("stopping: scoring the best parameters so far on every sample…")
 
     def _fit_progress(self, p: FitProgress) -> None:
         self._candidate = p.material
