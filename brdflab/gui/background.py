@@ -17,8 +17,21 @@ from PySide6.QtCore import QObject, QTimer, Signal
 _NOTHING = object()
 
 
-def _worker_pool() -> ProcessPoolExecutor:
+def worker_pool() -> ProcessPoolExecutor:
+    """One spawned worker process (it shares nothing with Qt)."""
     return ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+
+
+def stop_pool(pool: ProcessPoolExecutor | None) -> None:
+    """Shut a worker pool down now: queued work is dropped and a running job is not waited
+    for (its process is ended), so closing the window never waits for, or leaves, a worker."""
+    if pool is None:
+        return
+    processes = list(getattr(pool, "_processes", {}).values())  # the executor has no public kill
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
 
 
 class LatestOnly(QObject):
@@ -49,11 +62,11 @@ class LatestOnly(QObject):
 
     def _submit(self, arg: Any) -> None:
         if self._pool is None:
-            self._pool = _worker_pool()
+            self._pool = worker_pool()
         try:
             self._future = self._pool.submit(self._fn, arg)
         except BrokenProcessPool:  # the worker died (killed, out of memory): start a new one once
-            self._pool = _worker_pool()
+            self._pool = worker_pool()
             self._future = self._pool.submit(self._fn, arg)
         self._poll.start()
 
@@ -75,9 +88,8 @@ class LatestOnly(QObject):
 
     def shutdown(self) -> None:
         self._poll.stop()
-        if self._pool is not None:
-            self._pool.shutdown(wait=False, cancel_futures=True)
-            self._pool = None
+        stop_pool(self._pool)
+        self._pool = None
         self._future, self._pending = None, _NOTHING
 
 

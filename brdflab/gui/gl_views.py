@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 import moderngl
 import numpy as np
@@ -173,7 +172,7 @@ class ObjectView(_GLView):
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
-        self._pool = ThreadPoolExecutor(max_workers=1)
+        self._pool = None  # a worker process for SH tables (NumPy in a thread held the GIL for seconds)
         self._table_job = None
         self.settings = RenderSettings(reference_view=False, samples=256)
         self.exposure = 0.0
@@ -205,6 +204,14 @@ class ObjectView(_GLView):
         self._progressive = self._progressive_b = self._renderer_b = None
         self._scene_b = None
         self._timer.stop()
+
+    def shutdown(self) -> None:
+        """The window is closing: no more refinement, and no SH table is built any further."""
+        from brdflab.gui.background import stop_pool
+
+        self._timer.stop()
+        stop_pool(self._pool)
+        self._pool, self._table_job = None, None
 
     def hideEvent(self, event) -> None:
         """A hidden (or closing) view refines nothing: its context may be on its way out."""
@@ -254,18 +261,21 @@ class ObjectView(_GLView):
 
     def _table_pending(self) -> bool:
         """SH mode: build the BRDF table in a worker thread; True while it is not ready."""
-        from brdflab.lighting.sh_tables import cached_table
+        from brdflab.gui.background import worker_pool
+        from brdflab.lighting.sh_tables import brdf_table, remember_table
 
         r = self.renderer
-        if self._table_job is not None and self._table_job.done():
-            job, self._table_job = self._table_job, None
+        if self._table_job is not None and self._table_job[0].done():
+            (job, source, order), self._table_job = self._table_job, None
             self.busy.emit("")
-            job.result()  # re-raises a failed build here, where it is reported
+            remember_table(source, order, job.result())  # a failed build raises here, where it is reported
         if self.settings.mode != "sh" or r.sh_table_ready():
             return False
         if self._table_job is None:
             source = r.source if r.source is not None else r.material
-            self._table_job = self._pool.submit(cached_table, source, r.sh_order)
+            if self._pool is None:
+                self._pool = worker_pool()
+            self._table_job = (self._pool.submit(brdf_table, source, r.sh_order), source, r.sh_order)
             self.busy.emit(f"building the order-{r.sh_order} SH table…")
         QTimer.singleShot(100, self._refine)
         return True

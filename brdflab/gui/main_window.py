@@ -768,7 +768,7 @@ class MainWindow(QMainWindow):
         self.editor.shutdown()
         self.plots.shutdown()
         self._fits_energy_job.shutdown()
-        self.object_view._timer.stop()
+        self.object_view.shutdown()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState(LAYOUT_VERSION))
         self.settings.setValue("views", self.views.saveState())

@@ -113,6 +113,13 @@ def cached_table(source, order: int, size: int = DEFAULT_SIZE) -> np.ndarray:
     return _CACHE[key]
 
 
+def remember_table(source, order: int, table: np.ndarray, size: int = DEFAULT_SIZE) -> None:
+    """Put a table built elsewhere (the GUI's worker process) where cached_table finds it."""
+    if len(_CACHE) > 8:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[(_identity(source), order, size)] = table
+
+
 def is_cached(source, order: int, size: int = DEFAULT_SIZE) -> bool:
     return (_identity(source), order, size) in _CACHE
 
