@@ -107,3 +107,19 @@ def test_gui_thread_stays_responsive_while_fitting(window, qtbot, tmp_path):
     assert len(gaps) > 20  # the event loop kept turning (a GIL-bound thread allowed 2–4 turns)
     assert gaps[-1] < 2.0, f"the GUI thread was blocked for {1e3 * gaps[-1]:.0f} ms"
     assert stop_s < 5.0
+
+
+def test_an_edit_keeps_the_last_image_instead_of_grey(window, qtbot):
+    """Every change once cleared the object view to grey until new samples arrived (seconds
+    on a software GL): the last image now stays until the new one has its first samples."""
+    import numpy as np
+    from test_gui_layout import view_rgb
+
+    view = window.object_view
+    qtbot.waitUntil(lambda: view.samples_done >= 16, timeout=30000)
+    before = view_rgb(view).astype(int)
+    window.editor.parameter_edited.emit(1, "Exponent", 30.0)
+    assert view.samples_done == 0  # restarted …
+    shown = view_rgb(view).astype(int)  # … and drawn now, before any new sample
+    grey = np.abs(shown - [31, 31, 36]).max(axis=2) <= 2
+    assert grey.mean() < 0.9 and np.abs(shown - before).mean() < 1.0

@@ -188,6 +188,7 @@ class ObjectView(_GLView):
         self._renderer_b = None
         self._scene_b: tuple | None = None  # the scene _renderer_b was built for
         self._progressive_b = None
+        self._stale = None  # the last complete-enough image, shown while a new one starts
         self._timer = QTimer(self)
         self._timer.setInterval(0)
         self._timer.timeout.connect(self._refine)
@@ -201,7 +202,7 @@ class ObjectView(_GLView):
             self._timer.start()
 
     def context_lost(self) -> None:
-        self._progressive = self._progressive_b = self._renderer_b = None
+        self._progressive = self._progressive_b = self._renderer_b = self._stale = None
         self._scene_b = None
         self._timer.stop()
 
@@ -226,13 +227,25 @@ class ObjectView(_GLView):
         return self.renderer.camera
 
     def restart(self) -> None:
-        """Something changed: throw the accumulated samples away."""
-        for image in (self._progressive, self._progressive_b):
+        """Something changed: throw the accumulated samples away. The last image that had
+        samples stays on screen until the new one has its first (no grey flash per edit)."""
+        old = [self._progressive_b]
+        if self._progressive is not None and self._progressive.samples > 0 and not self.blank:
+            old.append(self._stale)
+            self._stale = self._progressive
+        else:
+            old.append(self._progressive)
+        for image in old:
             if image is not None and self.ctx is not None:
                 self.when_ready(image.release)
         self._progressive = self._progressive_b = None
         self._timer.start()
         self.update()
+
+    def _drop_stale(self) -> None:  # context current
+        if self._stale is not None:
+            self._stale.release()
+            self._stale = None
 
     @property
     def comparing(self) -> bool:
@@ -328,20 +341,25 @@ class ObjectView(_GLView):
         fbo.use()
         w, h = self.pixel_size()
         self.ctx.viewport = (0, 0, w, h)
-        if self.blank or self._progressive is None or self._progressive.samples == 0:
+        image = self._progressive
+        if image is None or image.samples == 0:
+            image = self._stale if self._stale is not None and (self._stale.settings.width, self._stale.settings.height) == (w, h) else None
+        elif self._stale is not None:
+            self._drop_stale()
+        if self.blank or image is None:
             fbo.clear(0.12, 0.12, 0.14, 1.0)
             if not self.blank and not self._timer.isActive():
                 self._timer.start()
             return
-        lit_by_map = self._progressive.settings.mode in ("fis", "sh")
-        other = self._progressive_b if self.comparing and self._progressive_b is not None else None
-        self.display.draw(self._progressive, self.exposure, self.reinhard, gamma=self.gamma,
+        lit_by_map = image.settings.mode in ("fis", "sh")
+        other = self._progressive_b if self.comparing and image is self._progressive and self._progressive_b is not None else None
+        self.display.draw(image, self.exposure, self.reinhard, gamma=self.gamma,
                           environment=self.renderer if lit_by_map else None, other=other,
                           compare=self.compare, split=self.split)
 
     def resizeGL(self, w: int, h: int) -> None:
-        for image in (self._progressive, self._progressive_b):
+        for image in (self._progressive, self._progressive_b, self._stale):
             if image is not None:
                 image.release()  # the context is current during resizeGL
-        self._progressive = self._progressive_b = None
+        self._progressive = self._progressive_b = self._stale = None
         self._timer.start()
