@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import os
 import tempfile
 import time
 import tracemalloc
@@ -30,7 +31,7 @@ from brdflab.fitting.metrics import grid_error, metric_error
 from brdflab.models import get_model
 from brdflab.fitting.samples import samples_of
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(os.environ.get("BRDFLAB_SHARED", Path(__file__).resolve().parents[2] / "shared")) / "data"
 SLICES = DATA / "merl_slices"
 
 
