@@ -225,7 +225,10 @@ def cmd_render(args: argparse.Namespace) -> int:
                               env_rotation=args.env_rotation, reference_view=args.view == "reference")
     ctx = create_context()
     renderer = ObjectRenderer(ctx)
-    renderer.set_source(source)
+    try:
+        renderer.set_source(source)
+    except BRDFLabError as e:  # what the renderer cannot draw (e.g. too many lobes), named by file
+        raise BRDFLabError(str(e), args.material) from None
     if args.view != "reference":
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
     if args.mode in ("fis", "sh"):

@@ -90,6 +90,7 @@ def build_corpus(d: Path) -> None:
     os.mkfifo(d / "fifo.slice")
     os.mkfifo(d / "fifo.xml")
     os.mkfifo(d / "fifo.obj")
+    os.mkfifo(d / "fifo.hdr")
     (d / "dir.binary").mkdir()
     w("names_fifo.xml", measured("fifo.slice", "BivariateSlice"))
     write_merl(d / "merl_1e308.binary", 1e308)
@@ -163,6 +164,7 @@ CASES: dict[str, Case] = {
     "lobes-declared-1e9": Case(["info", "nlobes_huge.xml"], words=("nlobes",)),
     # valid but large: fast, energy check capped and said so, warnings summarised
     "lobes-20000": Case(["info", "lobes_20000.xml", "--json"], status=0, words=("energy check",)),
+    "lobes-20000-render": Case(R("lobes_20000.xml"), words=("20,000 lobes",)),
     "unknown-1e6": Case(["info", "unknown_1e6.xml", "--json"], status=0, words=("999,990 more",)),
     # files far larger than declared, special files: refused before reading
     "merl-sparse-20GB": Case(["info", "big.binary"], words=("21474836480 bytes",)),
@@ -186,6 +188,8 @@ CASES: dict[str, Case] = {
     "mesh-1e308": Case(R(str(FIG2), "--mesh", "huge_coords.obj"), status=0),  # large, but a mesh
     "mesh-1e309": Case(R(str(FIG2), "--mesh", "inf_coords.obj"), names="inf_coords.obj", words=("nan or inf",),
                        read=("inf_coords.obj",)),
+    "envmap-fifo": Case(R(str(FIG2), "--mode", "fis", "--env", "fifo.hdr"), names="fifo.hdr",
+                        words=("not a regular file",)),
     "mesh-fifo": Case(R(str(FIG2), "--mesh", "fifo.obj"), names="fifo.obj", words=("not a regular file",)),
     # impossible materials
     "negative-scale": Case(["info", "negative_scale.xml"], words=("negative",)),
@@ -309,3 +313,41 @@ def test_checksum_matches_are_silent_and_mismatches_named(results):
     assert np.load(folder / "out.npy").shape == (100, 3)
     for name in ("checksum-eval", "checksum-fit", "checksum-render", "checksum-info"):
         assert "warning" in done[name].stderr and "sha256" in done[name].stderr, done[name].stderr
+
+
+def test_energy_budget_checks_what_fits_and_names_what_it_skipped(monkeypatch):
+    """In process (cheap): with a budget of one anisotropic lobe, the material is checked and
+    its two-lobe fit is reported as not checked, with a warning saying how many were skipped."""
+    from brdflab.io import xmlio
+    from brdflab.material.albedo import check_cost
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+    from brdflab.sources import files
+
+    ward = AnalyticMaterial("w", "Linear", 3, [Lobe.create("Ward", [0.1] * 3, ax=0.2, ay=0.3)])
+    fit = AnalyticMaterial("f", "Linear", 3, ward.lobes * 2)
+    doc = xmlio.BRDFDocument(ward, [xmlio.Fitting(fit, 0.1)])
+    monkeypatch.setattr(files, "ENERGY_CHECK_BUDGET", check_cost(ward))
+    monkeypatch.setattr(files, "load", lambda path: doc)
+    monkeypatch.setattr(files, "is_xml", lambda path: True)
+    info = files.describe_file(Path(__file__))
+    assert info["energy"]["checked"] and info["energy"]["conserves_energy"]
+    assert info["fittings"][0]["energy"]["checked"] is False
+    assert "2 lobes" in info["fittings"][0]["energy"]["reason"]
+    assert info["warnings"] == ['energy check skipped for 1 of 2 materials (more lobes than the check covers '
+                                'in one file; see "energy")']
+
+
+def test_negative_reflectance_never_conserves():
+    """A material built in memory with a negative scale (files refuse one) is flagged, not
+    reported as conserving with albedo −15.7; the albedo is checked against the closed form
+    of a Lambertian lobe (scale · π)."""
+    import math
+
+    from brdflab.material.albedo import energy_check
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+
+    lobe = Lobe.create("Lambertian", [0.1])
+    lobe.scale = [-5.0]
+    report = energy_check(AnalyticMaterial("n", "Linear", 1, [lobe]))
+    assert report.min_albedo[0] == pytest.approx(-5.0 * math.pi, rel=1e-3)
+    assert not report.conserves and report.as_dict()["conserves_energy"] is False
