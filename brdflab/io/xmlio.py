@@ -27,6 +27,7 @@ from brdflab.models import get_model
 ANALYTIC = "Analytic"
 MAX_XML_BYTES = 64 << 20  # a 20,000-lobe material is 3 MB
 WARNINGS_LISTED = 10  # unknown elements listed one by one; the rest are counted
+MAX_ATTRIBUTES = 256  # of an element the reader interprets (lxml reads attributes in quadratic time)
 SIMULATED_TYPES = ("SCATMECH", "RayBounce")  # <Type> names the simulation library, as BRDFLab does
 
 
@@ -173,6 +174,12 @@ class _Reader:
         more = self.unknown_count - WARNINGS_LISTED
         return self.warnings + ([f"... and {more:,} more"] if more > 0 else [])
 
+    def attributes(self, el: etree._Element) -> dict[str, str]:
+        """The attributes of an element the reader interprets; an absurd count is refused."""
+        if len(el.attrib) > MAX_ATTRIBUTES:
+            raise self.fail(el, f"{len(el.attrib):,} attributes (at most {MAX_ATTRIBUTES})")
+        return dict(el.attrib)
+
     def text(self, el: etree._Element, tag: str, required: bool = True) -> str | None:
         child = el.find(tag)
         if child is None or child.text is None or not child.text.strip():
@@ -242,7 +249,7 @@ class _Reader:
                 if not isinstance(material, AnalyticMaterial):
                     raise self.fail(child, "a <Fitting> must hold an analytic material")
             elif child.tag == "FitStatistics":
-                statistics = {k: _parse_scalar(v) for k, v in child.attrib.items()}
+                statistics = {k: _parse_scalar(v) for k, v in self.attributes(child).items()}
             else:
                 self.unknown(child, "Fitting")
                 extra.append(copy.deepcopy(child))
@@ -254,7 +261,7 @@ class _Reader:
             read_only,
             el.get("optimizerName", "LevenbergMarquardt"),
             statistics,
-            {k: v for k, v in el.attrib.items() if k not in known},
+            {k: v for k, v in self.attributes(el).items() if k not in known},
             extra,
         )
 
@@ -305,8 +312,8 @@ class _Reader:
         if sim is None or not sim.get("model"):
             raise self.fail(el, f"a {mtype} material needs <Simulation model=..>")
         p_el = sim.find("Parameters")
-        params = {} if p_el is None else dict(p_el.attrib)
-        settings = {k: v for k, v in sim.attrib.items() if k != "model"}
+        params = {} if p_el is None else self.attributes(p_el)
+        settings = {k: v for k, v in self.attributes(sim).items() if k != "model"}
         extra = self.leftovers(el, {"Name", "Type", "Simulation"}, "Material")
         return SimulatedReference(mtype, name or sim.get("model"), sim.get("model"), params, settings, extra)
 
@@ -348,13 +355,14 @@ class _Reader:
 
     def scaling_factors(self, el: etree._Element, n_channels: int) -> list[float]:
         names = [f"channel{c}" for c in range(n_channels)]
-        extra = sorted(set(el.attrib) - set(names))
+        attrs = self.attributes(el)
+        extra = sorted(set(attrs) - set(names))
         if extra:
             raise self.fail(el, f"unexpected attribute(s) {', '.join(extra)} for {n_channels} channels")
-        missing = [n for n in names if n not in el.attrib]
+        missing = [n for n in names if n not in attrs]
         if missing:
             raise self.fail(el, f"missing {', '.join(missing)} ({n_channels} channels)")
-        return [self.number(el, n, el.get(n)) for n in names]
+        return [self.number(el, n, attrs[n]) for n in names]
 
     def lobe(self, el: etree._Element, combination: str, scale: list[float] | None) -> Lobe:
         model_name = self.text(el, "Model")
@@ -363,7 +371,7 @@ class _Reader:
         except BRDFLabError as e:
             raise self.fail(el.find("Model"), str(e)) from None
         p_el = el.find("Parameters")
-        given = {} if p_el is None else {k: self.number(p_el, k, v) for k, v in p_el.attrib.items()}
+        given = {} if p_el is None else {k: self.number(p_el, k, v) for k, v in self.attributes(p_el).items()}
         channel = None
         if combination == "Fixed":
             channel = self.integer(el, "channel")
