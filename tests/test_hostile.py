@@ -76,10 +76,15 @@ def build_corpus(d: Path) -> None:
         linear_lobe(f'channel0="{1e-5 * (1 + k % 7)}" channel1="1e-5" channel2="2e-5"') for k in range(20_000)),
         n_lobes=20_000))
     w("unknown_1e6.xml", material(linear_lobe()).replace("</BRDF>", "<U/>" * 1_000_000 + "</BRDF>"))
+    w("unknown_3e6.xml", material(linear_lobe()).replace("</BRDF>", "<U/>" * 3_000_000 + "</BRDF>"))
     w("deep.xml", material(linear_lobe()).replace("</BRDF>", "<U>" * 100_000 + "</U>" * 100_000 + "</BRDF>"))
     w("many_attributes.xml", material(linear_lobe(" ".join(f'a{k}="1"' for k in range(100_000)))))
     w("many_parameters.xml", material(linear_lobe().replace("<Parameters/>", "<Parameters "
                                       + " ".join(f'p{k}="1"' for k in range(100_000)) + "/>")))
+    fit = material(linear_lobe()).split("<Material>", 1)[1].split("</Material>", 1)[0]
+    w("infinite_statistics.xml", material(linear_lobe()).replace("</BRDF>", (
+        f'<Fitting error="0.1"><Material>{fit}</Material><FitStatistics seconds="inf" iterations="nan"/></Fitting>'
+        "</BRDF>")))
     w("negative_scale.xml", material(linear_lobe('channel0="-50" channel1="0.1" channel2="0.1"')))
     w("huge_scale.xml", material(linear_lobe('channel0="1e308" channel1="0.1" channel2="0.1"')))
     fixed = '<Lobe channel="0"><Model>Lambertian</Model><Type>Isotropic</Type><Parameters value="0.2"/></Lobe>'
@@ -170,9 +175,11 @@ CASES: dict[str, Case] = {
     "lobes-20000": Case(["info", "lobes_20000.xml", "--json"], status=0, words=("energy check",)),
     "lobes-20000-render": Case(R("lobes_20000.xml"), words=("20,000 lobes",)),
     "unknown-1e6": Case(["info", "unknown_1e6.xml", "--json"], status=0, words=("999,990 more",)),
+    "unknown-3e6": Case(["info", "unknown_3e6.xml"], words=("3,000,011 elements",)),
     "xml-deep": Case(["info", "deep.xml"], words=("depth",)),
     "xml-many-attributes": Case(["info", "many_attributes.xml"], words=("100,000 attributes",)),
     "xml-many-parameters": Case(["info", "many_parameters.xml"], words=("100,000 attributes",)),
+    "xml-infinite-statistics": Case(["info", "infinite_statistics.xml", "--json"], status=0),
     # files far larger than declared, special files: refused before reading
     "merl-sparse-20GB": Case(["info", "big.binary"], words=("21474836480 bytes",)),
     "merl-sparse-20GB-eval": Case(E("big.binary"), words=("21474836480 bytes",)),

@@ -27,6 +27,7 @@ from brdflab.models import get_model
 ANALYTIC = "Analytic"
 MAX_XML_BYTES = 64 << 20  # a 20,000-lobe material is 3 MB
 WARNINGS_LISTED = 10  # unknown elements listed one by one; the rest are counted
+MAX_ELEMENTS = 1_200_000  # a 100,000-lobe material has 500,000; each kept unknown one costs ~700 bytes
 MAX_ATTRIBUTES = 256  # of an element the reader interprets (lxml reads attributes in quadratic time)
 SIMULATED_TYPES = ("SCATMECH", "RayBounce")  # <Type> names the simulation library, as BRDFLab does
 
@@ -417,6 +418,9 @@ def parse_bytes(data: bytes, path: Path | str | None = None, base_dir: Path | No
     if root is None:
         raise BRDFLabError("empty XML document", path)
     doctype = _checked_doctype(data, path)
+    elements = int(root.xpath("count(//*)"))
+    if elements > MAX_ELEMENTS:
+        raise BRDFLabError(f"{elements:,} elements is more than the {MAX_ELEMENTS:,} a material file may hold", path)
     if any(isinstance(node, etree._Entity) for node in root.iter()):
         raise BRDFLabError("entity references are not accepted in material files", path)
     doc = reader.document(root)
