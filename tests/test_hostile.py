@@ -365,3 +365,22 @@ def test_negative_reflectance_never_conserves():
     report = energy_check(AnalyticMaterial("n", "Linear", 1, [lobe]))
     assert report.min_albedo[0] == pytest.approx(-5.0 * math.pi, rel=1e-3)
     assert not report.conserves and report.as_dict()["conserves_energy"] is False
+
+
+def test_the_lab_never_writes_a_fixed_material_its_reader_refuses(tmp_path):
+    """The reader refuses a Fixed material with a channel that has no lobe; the workspace says
+    so on save instead of writing one, and adding channels gives them the last channel's lobes."""
+    from brdflab.errors import BRDFLabError
+    from brdflab.io.xmlio import BRDFDocument, load
+    from brdflab.workspace import Workspace, with_channels, with_lobe_removed
+
+    fixed = load(ROOT / "materials" / "fig5_fixed_per_channel.xml").material
+    grown = Workspace(BRDFDocument(with_channels(fixed, 4)))
+    grown.save(tmp_path / "grown.xml")
+    back = load(tmp_path / "grown.xml").material
+    assert back.n_channels == 4 and back.channels_without_lobes() == []
+    assert [l.params for l in back.lobes if l.channel == 3] == [l.params for l in fixed.lobes if l.channel == 2]
+    emptied = Workspace(BRDFDocument(with_lobe_removed(with_lobe_removed(fixed, 2), 2)))  # channel 1's lobes
+    with pytest.raises(BRDFLabError, match="channel 1"):
+        emptied.save(tmp_path / "emptied.xml")
+    assert not (tmp_path / "emptied.xml").exists()
