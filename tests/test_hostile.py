@@ -19,7 +19,7 @@ import signal
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -51,9 +51,8 @@ def measured(data: str, type_: str, checksum: str | None = None) -> str:
             f"<Type>{type_}</Type>\n{check}\n</Material>\n</BRDF>\n")
 
 
-def slice_bytes(value: float = 0.05, at: tuple[int, ...] | None = None) -> bytes:
-    a = np.full((90, 90, 3), value, "<f4")
-    return a.tobytes()
+def slice_bytes(value: float) -> bytes:
+    return np.full((90, 90, 3), value, "<f4").tobytes()
 
 
 def write_merl(path: Path, special: float) -> None:
@@ -149,7 +148,6 @@ class Case:
     names: str | None = None  # the file the error line must name (default: the first argument)
     read: tuple[str, ...] = ()  # text files the command reads: none of their lines may be echoed
     hide_charset: bool = False
-    extra: dict = field(default_factory=dict)
 
     @property
     def named(self) -> str:
