@@ -57,7 +57,7 @@ def cmd_models(args: argparse.Namespace) -> int:
 def cmd_info(args: argparse.Namespace) -> int:
     from brdflab.sources.files import describe_file
 
-    info = describe_file(Path(args.file))
+    info = _json_safe(describe_file(Path(args.file)))
     for w in info.get("warnings", []):
         print(f"{args.file}: warning: {w}", file=sys.stderr)
     _emit(args, info, json.dumps(info, indent=2, default=_json_default, ensure_ascii=False))
@@ -74,34 +74,35 @@ def cmd_examples(args: argparse.Namespace) -> int:
     return 0
 
 
+def _json_safe(value):
+    """`value` with every non-finite float as None: Infinity and NaN are not JSON."""
+    import numpy as np
+
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, (float, np.floating)) and not np.isfinite(value):
+        return None
+    return value
+
+
+def _warner(args: argparse.Namespace):
+    """A callback that prints a problem that does not stop the command as one stderr line."""
+    return lambda message: print(f"brdflab {args.command}: warning: {message}", file=sys.stderr)
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
     from brdflab.io.atomic import atomic_write, check_writable
-    from brdflab.sources.files import load_source
+    from brdflab.io.pairs import read_pairs
+    from brdflab.sources.files import evaluate_in_chunks, load_source
 
     check_writable(args.out)
-    pairs_path = Path(args.pairs)
-    try:
-        pairs = np.load(pairs_path, allow_pickle=False)
-    except (OSError, ValueError) as e:
-        raise BRDFLabError(f"cannot read as .npy: {e}", pairs_path) from None
-    if pairs.ndim != 2 or pairs.shape[1] != 6:
-        raise BRDFLabError(f"expected an (N, 6) array [wi | wo], got shape {pairs.shape}", pairs_path)
-    if not np.issubdtype(pairs.dtype, np.floating) and not np.issubdtype(pairs.dtype, np.integer):
-        raise BRDFLabError(f"expected a numeric array, got dtype {pairs.dtype}", pairs_path)
-    pairs = pairs.astype(float)
-    if not np.all(np.isfinite(pairs)):
-        raise BRDFLabError("the pairs contain NaN or Inf", pairs_path)
-    wi, wo = pairs[:, :3], pairs[:, 3:]
-    for name, w in (("wi", wi), ("wo", wo)):
-        norm = np.linalg.norm(w, axis=1)
-        if np.any(norm < 1e-9):
-            raise BRDFLabError(f"a {name} direction has zero length", pairs_path)
-    wi = wi / np.linalg.norm(wi, axis=1, keepdims=True)
-    wo = wo / np.linalg.norm(wo, axis=1, keepdims=True)
-    source = load_source(Path(args.material), fitting=args.fitting)
-    values = source.evaluate(wi, wo)
+    wi, wo = read_pairs(args.pairs)
+    source = load_source(Path(args.material), fitting=args.fitting, warn=_warner(args))
+    values = evaluate_in_chunks(source, wi, wo)
     out = Path(args.out)
     buf = io.BytesIO()
     np.save(buf, values)
@@ -118,7 +119,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from brdflab.fitting.lm import FitOptions, fit
     from brdflab.io.atomic import check_writable
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
-    from brdflab.fitting.samples import samples_of
+    from brdflab.fitting.samples import MAX_DENSITY, samples_of
     from brdflab.sources.files import load_source
     from brdflab.io.xmlio import save
 
@@ -126,8 +127,15 @@ def cmd_fit(args: argparse.Namespace) -> int:
         raise BRDFLabError(f"--time-limit {args.time_limit:g}: must be a positive number of seconds")
     if args.out:
         check_writable(args.out)  # a bad --out fails before the fit, not after it
+    for option, value, kind in (("--size", args.size, "subset"), ("--density", args.density, "grid")):
+        if value is not None and args.samples != kind:
+            raise BRDFLabError(f"{option} applies to --samples {kind}, not --samples {args.samples}")
+    if args.size is not None and args.size < 1:
+        raise BRDFLabError(f"--size {args.size}: a subset needs at least 1 sample")
+    if args.density is not None and not 2 <= args.density <= MAX_DENSITY:
+        raise BRDFLabError(f"--density {args.density}: must be 2..{MAX_DENSITY} bins per half/difference angle")
     source_path = Path(args.source)
-    source = load_source(source_path, fitting=args.fitting)
+    source = load_source(source_path, fitting=args.fitting, warn=_warner(args))
     lobes = [s.strip() for s in args.lobes.split(",") if s.strip()] if args.lobes else None
     combination = {"linear": "Linear", "fixed": "Fixed"}[args.combination]
     start = initial_material(lobes, combination, source.n_channels,
@@ -226,12 +234,15 @@ def cmd_render(args: argparse.Namespace) -> int:
     light = _vector(args.light, 3, "--light")
     if math.hypot(*light) < 1e-12:
         raise BRDFLabError("--light must not be the zero vector")
-    source = load_source(Path(args.material), fitting=args.fitting)
+    source = load_source(Path(args.material), fitting=args.fitting, warn=_warner(args))
     settings = RenderSettings(mode=args.mode, width=width, height=height, samples=args.samples, light=light,
                               env_rotation=args.env_rotation, reference_view=args.view == "reference")
     ctx = create_context()
     renderer = ObjectRenderer(ctx)
-    renderer.set_source(source)
+    try:
+        renderer.set_source(source)
+    except BRDFLabError as e:  # what the renderer cannot draw (e.g. too many lobes), named by file
+        raise BRDFLabError(str(e), args.material) from None
     if args.view != "reference":
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
     if args.mode in ("fis", "sh"):

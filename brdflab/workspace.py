@@ -102,6 +102,10 @@ class Workspace:
         target = Path(path) if path else self.path
         if target is None:
             raise BRDFLabError("choose a file name to save to")
+        empty = self.analytic.channels_without_lobes() if self.analytic is not None and self.analytic.lobes else []
+        if empty:  # the reader refuses such a file: say so now, not when it is opened again
+            raise BRDFLabError(f"a Fixed material needs a lobe for every channel; add one for channel "
+                               f"{', '.join(map(str, empty))} before saving")
         save(self.document, target)
         self.path = target
         self.dirty = False
@@ -207,6 +211,9 @@ def with_channels(material: AnalyticMaterial, n: int) -> AnalyticMaterial:
     if out.combination == "Linear":
         for lobe in out.lobes:
             lobe.scale = (lobe.scale + [lobe.scale[-1]] * n)[:n]
-    else:
-        out.lobes = [l for l in out.lobes if l.channel < n]
+    else:  # new channels start with copies of the last channel's lobes, as Linear copies its scale
+        last = max(l.channel for l in out.lobes) if out.lobes else 0
+        out.lobes = [l for l in out.lobes if l.channel < n] + [
+            Lobe(l.model, dict(l.params), list(l.scale), c) for c in range(last + 1, n)
+            for l in material.lobes if l.channel == last]
     return out

@@ -20,6 +20,9 @@ from brdflab.geometry.vec import spherical_to_cartesian
 Chunk = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
+MAX_DENSITY = N_TH  # a grid finer than MERL's 90 bins per angle adds nothing to a table
+MAX_GRID_SAMPLES = 4_000_000  # an analytic grid's samples (an anisotropic density-32 grid has 2.1 M)
+
 GOLDEN = 0.6180339887498949  # the golden ratio's fractional part: a low-discrepancy sequence
 
 
@@ -185,11 +188,14 @@ def analytic_grid(source, density: int = 32, phi_h_bins: int | None = None) -> A
     d = int(density)
     if d < 2:
         raise BRDFLabError(f"grid density {d} is too small (at least 2)")
+    nph = 1 if source.isotropic else (phi_h_bins or d)
+    if 2 * d**3 * nph > MAX_GRID_SAMPLES:
+        raise BRDFLabError(f"grid density {d} makes {2 * d**3 * nph:,} samples, more than the "
+                           f"{MAX_GRID_SAMPLES:,} supported")
     x = (np.arange(d) + 0.5) / d
     th = x**2 * 0.5 * np.pi
     td = x * 0.5 * np.pi
     pd = (np.arange(2 * d) + 0.5) / (2 * d) * np.pi
-    nph = 1 if source.isotropic else (phi_h_bins or d)
     ph = (np.arange(nph) + 0.5) / nph * 2.0 * np.pi if nph > 1 else np.zeros(1)
     TH, PH, TD, PD = np.meshgrid(th, ph, td, pd, indexing="ij")
     wi, wo = from_half_diff(TH.ravel(), PH.ravel(), TD.ravel(), PD.ravel())
@@ -210,6 +216,10 @@ def samples_of(source, kind: str = "all", size: int | None = None, density: int 
     or a 'grid' of `density` bins per half/difference angle."""
     if kind not in ("all", "subset", "grid"):
         raise BRDFLabError(f"unknown sample set {kind!r} (all, subset or grid)")
+    if size is not None and size < 1:
+        raise BRDFLabError(f"a subset of {size} samples: the size must be at least 1")
+    if density is not None and not 2 <= density <= MAX_DENSITY:
+        raise BRDFLabError(f"grid density {density}: must be 2..{MAX_DENSITY} bins per angle")
     if isinstance(source, MeasuredTable):
         if kind == "grid":
             step = max(1, N_TH // max(2, density or 45))

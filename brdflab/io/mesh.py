@@ -6,6 +6,7 @@ projected into the tangent plane (as Kautz et al. do for brushed directions).
 
 from __future__ import annotations
 
+import io
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,10 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.bounded import read_bounded
 from brdflab.io.resources import data_dir
 
 MAX_TRIANGLES = 20_000_000
+MAX_MESH_BYTES = 2 << 30
 FORMATS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
+TEXT_FORMATS = (".obj", ".off")  # decoded here: trimesh needs a charset detector for non-UTF-8 text
 
 
 @dataclass
@@ -77,6 +81,9 @@ def from_arrays(positions, faces, normals=None, uv=None, name="mesh") -> Mesh:
         raise BRDFLabError(f"{name}: expected triangles, got vertex shape {positions.shape}, face shape {faces.shape}")
     if not np.all(np.isfinite(positions)):
         raise BRDFLabError(f"{name}: {int((~np.isfinite(positions)).any(axis=1).sum())} vertices are NaN or Inf")
+    largest = float(np.abs(positions).max()) if positions.size else 0.0
+    if largest > 0.0:  # the mesh is scaled to the unit sphere anyway; first, so that 1e308 cannot overflow
+        positions = positions / largest
     if faces.size == 0 or faces.min() < 0 or faces.max() >= len(positions):
         raise BRDFLabError(f"{name}: faces index missing vertices (or there are no faces)")
     if len(faces) > MAX_TRIANGLES:
@@ -114,12 +121,16 @@ def load_mesh(path: str | os.PathLike) -> Mesh:
     import trimesh
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise BRDFLabError("no such file", path)
     if path.suffix.lower() not in FORMATS:
         raise BRDFLabError(f"unsupported mesh type {path.suffix!r} (use {', '.join(FORMATS)})", path)
+    data = read_bounded(path, MAX_MESH_BYTES, "a mesh file")
+    if path.suffix.lower() in TEXT_FORMATS:
+        data = _utf8(data)
     try:
-        loaded = trimesh.load(str(path), force="mesh", process=False)
+        loaded = trimesh.load(io.BytesIO(data), file_type=path.suffix.lower()[1:], force="mesh", process=False,
+                              resolver=trimesh.resolvers.FilePathResolver(str(path)))
     except MemoryError:
         raise BRDFLabError("the mesh is too large for memory", path) from None
     except Exception as e:  # trimesh raises many types for broken files
@@ -136,6 +147,15 @@ def load_mesh(path: str | os.PathLike) -> Mesh:
         return from_arrays(np.asarray(loaded.vertices), np.asarray(loaded.faces), normals, uv, path.name)
     except BRDFLabError as e:
         raise BRDFLabError(str(e).split(": ", 1)[1], path) from None
+
+
+def _utf8(data: bytes) -> bytes:
+    """Text mesh bytes as UTF-8: files from older exporters often have Latin-1 comments."""
+    try:
+        data.decode("utf-8")
+        return data
+    except UnicodeDecodeError:
+        return data.decode("latin-1").encode("utf-8")
 
 
 def uv_sphere(n_theta: int = 96, n_phi: int = 192) -> Mesh:

@@ -22,11 +22,16 @@ from lxml import etree
 
 from brdflab.errors import BRDFLabError
 from brdflab.io.atomic import atomic_write
+from brdflab.io.bounded import MAX_DATA_BYTES, BoundedFile, read_bounded
 from brdflab.io.xml_source import SourceXML
-from brdflab.material.analytic import AnalyticMaterial, Lobe, SourceLinked
+from brdflab.material.analytic import MAX_CHANNELS, MAX_LOBES, AnalyticMaterial, Lobe, SourceLinked
 from brdflab.models import get_model
 
 ANALYTIC = "Analytic"
+MAX_XML_BYTES = 64 << 20  # a 20,000-lobe material is 3 MB
+WARNINGS_LISTED = 10  # unknown elements listed one by one; the rest are counted
+MAX_ELEMENTS = 1_200_000  # a 100,000-lobe material has 500,000; each kept unknown one costs ~700 bytes
+MAX_ATTRIBUTES = 256  # of an element the reader interprets (lxml reads attributes in quadratic time)
 SIMULATED_TYPES = ("SCATMECH", "RayBounce")  # <Type> names the simulation library, as BRDFLab does
 
 
@@ -53,13 +58,25 @@ class MeasuredReference(SourceLinked):
         return not self.path.is_file()
 
     def current_sha256(self) -> str | None:
+        """The data file's checksum; None when it is missing, special or too large to be data."""
         if self.missing:
             return None
-        h = hashlib.sha256()
-        with open(self.path, "rb") as f:
-            for block in iter(lambda: f.read(1 << 20), b""):
-                h.update(block)
+        try:
+            with BoundedFile(self.path, MAX_DATA_BYTES) as f:
+                h = hashlib.sha256()
+                for start in range(0, f.size, 1 << 20):
+                    h.update(f.read(min(1 << 20, f.size - start)))
+        except BRDFLabError:
+            return None
         return h.hexdigest()
+
+    def checksum_problem(self) -> str | None:
+        """A warning when the data file no longer matches the checksum the material records."""
+        if not self.sha256 or self.missing:
+            return None
+        if self.current_sha256() != self.sha256.strip().lower():
+            return f"{self.path}: the data does not match the sha256 checksum recorded in the material"
+        return None
 
     def describe(self) -> dict:
         out = {"type": self.type, "data_file": self.name, "resolved_path": str(self.path), "missing": self.missing}
@@ -149,13 +166,27 @@ class _Reader:
         self.path = path
         self.base_dir = base_dir
         self.warnings: list[str] = []
+        self.unknown_count = 0
 
     def fail(self, el: etree._Element | None, message: str) -> BRDFLabError:
         where = f"line {el.sourceline}: <{el.tag}>: " if el is not None and el.sourceline else ""
         return BRDFLabError(where + message, self.path)
 
     def unknown(self, el: etree._Element, parent: str) -> None:
-        self.warnings.append(f"line {el.sourceline}: unknown element <{el.tag}> in <{parent}> kept as is")
+        self.unknown_count += 1
+        if self.unknown_count <= WARNINGS_LISTED:
+            self.warnings.append(f"line {el.sourceline}: unknown element <{el.tag}> in <{parent}> kept as is")
+
+    def summarised_warnings(self) -> list[str]:
+        """The warnings, with unknown elements past the first WARNINGS_LISTED counted in one line."""
+        more = self.unknown_count - WARNINGS_LISTED
+        return self.warnings + ([f"... and {more:,} more"] if more > 0 else [])
+
+    def attributes(self, el: etree._Element) -> dict[str, str]:
+        """The attributes of an element the reader interprets; an absurd count is refused."""
+        if len(el.attrib) > MAX_ATTRIBUTES:
+            raise self.fail(el, f"{len(el.attrib):,} attributes (at most {MAX_ATTRIBUTES})")
+        return dict(el.attrib)
 
     def text(self, el: etree._Element, tag: str, required: bool = True) -> str | None:
         child = el.find(tag)
@@ -169,7 +200,8 @@ class _Reader:
         try:
             v = float(value)
         except ValueError:
-            raise self.fail(el, f"{attr}={value!r} is not a number") from None
+            shown = repr(value) if len(value) <= 32 else f"{value[:24]!r}… ({len(value)} characters)"
+            raise self.fail(el, f"{attr}={shown} is not a number") from None
         if not math.isfinite(v):
             raise self.fail(el, f"{attr} is {value} (must be finite)")
         return v
@@ -181,7 +213,8 @@ class _Reader:
         try:
             return int(value)
         except ValueError:
-            raise self.fail(el, f"{attr}={value!r} is not an integer") from None
+            shown = repr(value) if len(value) <= 32 else f"{value[:24]!r}… ({len(value)} characters)"
+            raise self.fail(el, f"{attr}={shown} is not an integer") from None
 
     # --- elements ---------------------------------------------------------------
     def document(self, root: etree._Element) -> BRDFDocument:
@@ -210,7 +243,7 @@ class _Reader:
                 extra.append(copy.deepcopy(child))
         if material is None:
             raise self.fail(root, "no <Material>")
-        return BRDFDocument(material, fittings, info, extra, self.path, self.warnings)
+        return BRDFDocument(material, fittings, info, extra, self.path, self.summarised_warnings())
 
     def fitting(self, el: etree._Element) -> Fitting:
         known = {"error", "readOnly", "optimizerName"}
@@ -227,7 +260,7 @@ class _Reader:
                 if not isinstance(material, AnalyticMaterial):
                     raise self.fail(child, "a <Fitting> must hold an analytic material")
             elif child.tag == "FitStatistics":
-                statistics = {k: _parse_scalar(v) for k, v in child.attrib.items()}
+                statistics = {k: _parse_scalar(v) for k, v in self.attributes(child).items()}
             else:
                 self.unknown(child, "Fitting")
                 extra.append(copy.deepcopy(child))
@@ -239,7 +272,7 @@ class _Reader:
             read_only,
             el.get("optimizerName", "LevenbergMarquardt"),
             statistics,
-            {k: v for k, v in el.attrib.items() if k not in known},
+            {k: v for k, v in self.attributes(el).items() if k not in known},
             extra,
             el,
         )
@@ -266,17 +299,24 @@ class _Reader:
             raise self.fail(el, "an analytic material needs <Parameters nChannels=.. nLobes=..>")
         n_channels = self.integer(params, "nChannels")
         n_lobes = self.integer(params, "nLobes")
-        if n_channels < 1:
-            raise self.fail(params, f"nChannels={n_channels} (must be at least 1)")
+        if not 1 <= n_channels <= MAX_CHANNELS:
+            raise self.fail(params, f"nChannels={n_channels} (must be 1..{MAX_CHANNELS})")
+        if not 0 <= n_lobes <= MAX_LOBES:
+            raise self.fail(params, f"nLobes={n_lobes} (must be 0..{MAX_LOBES})")
+        declared = sum(1 for child in params if child.tag == "Lobe")
+        if declared != n_lobes:  # counted before any lobe is built
+            raise self.fail(params, f"nLobes={n_lobes} but {declared} <Lobe> elements")
         lobes = self.lobes(params, combination, n_channels)
-        if len(lobes) != n_lobes:
-            raise self.fail(params, f"nLobes={n_lobes} but {len(lobes)} <Lobe> elements")
         extra = self.leftovers(el, known | {"LobeCombination", "Parameters"}, "Material")
         mat = AnalyticMaterial(name or "material", combination, n_channels, lobes, extra, el)
         try:
             mat.validate()
         except BRDFLabError as e:
             raise self.fail(params, str(e)) from None
+        empty = mat.channels_without_lobes() if lobes else []
+        if empty:
+            raise self.fail(params, f"a Fixed material needs a lobe for every channel; no lobe for channel "
+                                    f"{', '.join(map(str, empty))} (it would be black)")
         return mat
 
     def simulated(self, el: etree._Element, mtype: str, name: str) -> SimulatedReference:
@@ -284,8 +324,8 @@ class _Reader:
         if sim is None or not sim.get("model"):
             raise self.fail(el, f"a {mtype} material needs <Simulation model=..>")
         p_el = sim.find("Parameters")
-        params = {} if p_el is None else dict(p_el.attrib)
-        settings = {k: v for k, v in sim.attrib.items() if k != "model"}
+        params = {} if p_el is None else self.attributes(p_el)
+        settings = {k: v for k, v in self.attributes(sim).items() if k != "model"}
         extra = self.leftovers(el, {"Name", "Type", "Simulation"}, "Material")
         return SimulatedReference(mtype, name or sim.get("model"), sim.get("model"), params, settings, extra, el)
 
@@ -334,13 +374,14 @@ class _Reader:
 
     def scaling_factors(self, el: etree._Element, n_channels: int) -> list[float]:
         names = [f"channel{c}" for c in range(n_channels)]
-        extra = sorted(set(el.attrib) - set(names))
+        attrs = self.attributes(el)
+        extra = sorted(set(attrs) - set(names))
         if extra:
             raise self.fail(el, f"unexpected attribute(s) {', '.join(extra)} for {n_channels} channels")
-        missing = [n for n in names if n not in el.attrib]
+        missing = [n for n in names if n not in attrs]
         if missing:
             raise self.fail(el, f"missing {', '.join(missing)} ({n_channels} channels)")
-        return [self.number(el, n, el.get(n)) for n in names]
+        return [self.number(el, n, attrs[n]) for n in names]
 
     def lobe(self, el: etree._Element, combination: str, scale: list[float] | None,
              scale_el: etree._Element | None) -> Lobe:
@@ -350,7 +391,7 @@ class _Reader:
         except BRDFLabError as e:
             raise self.fail(el.find("Model"), str(e)) from None
         p_el = el.find("Parameters")
-        given = {} if p_el is None else {k: self.number(p_el, k, v) for k, v in p_el.attrib.items()}
+        given = {} if p_el is None else {k: self.number(p_el, k, v) for k, v in self.attributes(p_el).items()}
         channel = None
         if combination == "Fixed":
             channel = self.integer(el, "channel")
@@ -374,11 +415,14 @@ class _Reader:
 
 
 def _parse_scalar(text: str):
+    """An int or a finite float, else the text as it is (Infinity and NaN are not JSON)."""
     for conv in (int, float):
         try:
-            return conv(text)
+            value = conv(text)
         except ValueError:
-            pass
+            continue
+        if math.isfinite(value):
+            return value
     return text
 
 
@@ -393,6 +437,9 @@ def parse_bytes(data: bytes, path: Path | str | None = None, base_dir: Path | No
     if root is None:
         raise BRDFLabError("empty XML document", path)
     doctype = _checked_doctype(data, path)
+    elements = int(root.xpath("count(//*)"))
+    if elements > MAX_ELEMENTS:
+        raise BRDFLabError(f"{elements:,} elements is more than the {MAX_ELEMENTS:,} a material file may hold", path)
     if any(isinstance(node, etree._Entity) for node in root.iter()):
         raise BRDFLabError("entity references are not accepted in material files", path)
     doc = reader.document(root)
@@ -426,11 +473,7 @@ def _checked_doctype(data: bytes, path) -> str | None:
 def load(path: str | os.PathLike) -> BRDFDocument:
     """Read an XML material file."""
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise BRDFLabError(f"cannot read: {e.strerror}", path) from None
-    return parse_bytes(data, path, path.parent)
+    return parse_bytes(read_bounded(path, MAX_XML_BYTES, "a material file"), path, path.parent)
 
 
 # --------------------------------------------------------------------------------------

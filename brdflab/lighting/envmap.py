@@ -13,8 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.bounded import checked_size
 
 MAX_PIXELS = 64 * 1024 * 1024
+MAX_MAP_BYTES = 1 << 30  # MAX_PIXELS of uncompressed float32 RGB is 805 MB
 
 
 @dataclass
@@ -218,6 +220,7 @@ def load_environment(path: str | os.PathLike, layout: str = "auto") -> Environme
 
     path = Path(path)
     ext = path.suffix.lower()
+    checked_size(path, MAX_MAP_BYTES, "an environment map")  # a FIFO or /dev/zero would never end
     if ext in (".hdr", ".pic", ".rgbe"):
         data = read_hdr(path)
     elif ext == ".exr":

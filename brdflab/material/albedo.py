@@ -17,6 +17,8 @@ from brdflab.geometry.sobol import scrambled_sobol
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.geometry.vec import spherical_to_cartesian
 
+SAMPLES_LOG2 = 12
+PRODUCT_RULE = (96, 192)  # cos θ × φ nodes for lobes without an importance sampler
 
 @lru_cache(maxsize=8)
 def _sobol(n_log2: int) -> np.ndarray:
@@ -34,7 +36,7 @@ def _product_rule(n_theta: int, n_phi: int) -> tuple[np.ndarray, np.ndarray]:
     return dirs, weights
 
 
-def lobe_albedo(lobe: Lobe, wo: np.ndarray, samples_log2: int = 12) -> np.ndarray:
+def lobe_albedo(lobe: Lobe, wo: np.ndarray, samples_log2: int = SAMPLES_LOG2) -> np.ndarray:
     """Albedo of one unscaled lobe for each view direction wo (shape (M, 3)) → (M,)."""
     wo = np.atleast_2d(np.asarray(wo, float))
     model, params = lobe.model, lobe.params
@@ -46,12 +48,12 @@ def lobe_albedo(lobe: Lobe, wo: np.ndarray, samples_log2: int = 12) -> np.ndarra
         f = model.evaluate(wi, wo_b, params) * np.maximum(wi[..., 2], 0.0)
         ratio = np.where(pdf > 0.0, f / np.where(pdf > 0.0, pdf, 1.0), 0.0)
         return ratio.mean(axis=1)
-    dirs, weights = _product_rule(96, 192)
+    dirs, weights = _product_rule(*PRODUCT_RULE)
     f = model.evaluate(dirs[None, :, :], wo[:, None, :], params) * dirs[None, :, 2]
     return f @ weights
 
 
-def directional_albedo(material: AnalyticMaterial, wo: np.ndarray, samples_log2: int = 12) -> np.ndarray:
+def directional_albedo(material: AnalyticMaterial, wo: np.ndarray, samples_log2: int = SAMPLES_LOG2) -> np.ndarray:
     """Albedo of every channel for each wo: shape (M, n_channels)."""
     wo = np.atleast_2d(np.asarray(wo, float))
     out = np.zeros((wo.shape[0], material.n_channels))
@@ -72,6 +74,13 @@ def view_directions(isotropic: bool, n_theta: int = 24, n_phi: int = 12) -> np.n
     return spherical_to_cartesian(t.ravel(), p.ravel())
 
 
+def check_cost(material: AnalyticMaterial) -> int:
+    """Lobe evaluations that `energy_check(material)` takes; its time is proportional."""
+    views = len(view_directions(material.isotropic))
+    per_lobe = [2**SAMPLES_LOG2 if l.model.samplable else PRODUCT_RULE[0] * PRODUCT_RULE[1] for l in material.lobes]
+    return views * int(sum(per_lobe))
+
+
 @dataclass
 class EnergyReport:
     """Worst directional albedo of each channel and where it occurs."""
@@ -79,25 +88,31 @@ class EnergyReport:
     max_albedo: np.ndarray  # (n_channels,)
     worst_view: np.ndarray  # (n_channels, 3)
     tolerance: float
+    min_albedo: np.ndarray | None = None  # (n_channels,); below 0 means negative reflectance
 
     @property
     def conserves(self) -> bool:
-        return bool(np.all(self.max_albedo <= 1.0 + self.tolerance))
+        low = self.min_albedo if self.min_albedo is not None else self.max_albedo
+        return bool(np.all(self.max_albedo <= 1.0 + self.tolerance) and np.all(low >= -self.tolerance))
 
     def as_dict(self) -> dict:
-        return {
+        out = {
+            "checked": True,
             "conserves_energy": self.conserves,
             "max_albedo": [float(a) for a in self.max_albedo],
             "worst_view_theta_deg": [float(np.degrees(np.arccos(np.clip(w[2], -1, 1)))) for w in self.worst_view],
         }
+        if self.min_albedo is not None:
+            out["min_albedo"] = [float(a) for a in self.min_albedo]
+        return out
 
 
 def energy_check(material: AnalyticMaterial, tolerance: float = 1e-3) -> EnergyReport:
-    """Whether albedo ≤ 1 (within `tolerance`) for every visited view direction."""
+    """Whether 0 ≤ albedo ≤ 1 (within `tolerance`) for every visited view direction."""
     views = view_directions(material.isotropic)
     a = directional_albedo(material, views)
     worst = np.argmax(a, axis=0)
-    return EnergyReport(a[worst, np.arange(a.shape[1])], views[worst], tolerance)
+    return EnergyReport(a[worst, np.arange(a.shape[1])], views[worst], tolerance, a.min(axis=0))
 
 
 def conserve_energy(material: AnalyticMaterial) -> AnalyticMaterial:

@@ -19,6 +19,12 @@ from brdflab.models import LobeModel, get_model
 
 Combination = Literal["Linear", "Fixed"]
 
+# What a material may declare: far above any real one, low enough that a hostile file
+# cannot make the lab allocate or compute without bound.
+MAX_CHANNELS = 64
+MAX_LOBES = 100_000
+MAX_SCALE = 1e6  # a scaling factor (or Fixed value) above this is not a reflectance
+
 
 class SourceLinked:
     """A value read from XML: it may link to the element it was read from (`source`) and
@@ -111,6 +117,11 @@ class Lobe(SourceLinked):
         for s in self.scale:
             if not math.isfinite(s):
                 raise BRDFLabError(f"{prefix}{self.model.name} scaling factor is {s}")
+            if s < 0.0:
+                raise BRDFLabError(f"{prefix}{self.model.name} scaling factor {s:g} is negative (a BRDF is never negative)")
+            if s > MAX_SCALE:
+                raise BRDFLabError(f"{prefix}{self.model.name} scaling factor {s:g} is above {MAX_SCALE:g} "
+                                   "(no real material reflects that much)")
 
     def values(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         return self.model.evaluate(wi, wo, self.params)
@@ -133,8 +144,10 @@ class AnalyticMaterial(SourceLinked):
         prefix = f"{where}: " if where else ""
         if self.combination not in ("Linear", "Fixed"):
             raise BRDFLabError(f"{prefix}LobeCombination must be Linear or Fixed, not {self.combination!r}")
-        if self.n_channels < 1:
-            raise BRDFLabError(f"{prefix}nChannels must be at least 1, not {self.n_channels}")
+        if not 1 <= self.n_channels <= MAX_CHANNELS:
+            raise BRDFLabError(f"{prefix}nChannels must be 1..{MAX_CHANNELS}, not {self.n_channels}")
+        if len(self.lobes) > MAX_LOBES:
+            raise BRDFLabError(f"{prefix}{len(self.lobes)} lobes is more than the {MAX_LOBES} supported")
         for k, lobe in enumerate(self.lobes):
             lobe.validate(f"{prefix}lobe {k}" if not where else f"{where}, lobe {k}")
             if self.combination == "Linear" and len(lobe.scale) != self.n_channels:
@@ -146,6 +159,12 @@ class AnalyticMaterial(SourceLinked):
                     raise BRDFLabError(f"{prefix}lobe {k} has channel {lobe.channel}, not in 0..{self.n_channels - 1}")
                 if len(lobe.scale) != 1:
                     raise BRDFLabError(f"{prefix}lobe {k} of a Fixed material needs exactly one value")
+
+    def channels_without_lobes(self) -> list[int]:
+        """Channels of a Fixed material that no lobe belongs to (they would render black)."""
+        if self.combination != "Fixed":
+            return []
+        return sorted(set(range(self.n_channels)) - {lobe.channel for lobe in self.lobes})
 
     @property
     def isotropic(self) -> bool:

@@ -15,6 +15,7 @@ from brdflab.models import LobeModel
 from brdflab.io.resources import shader_path
 
 MAX_PARAMS = 8
+MAX_LOBES = 64  # the shader unrolls every lobe and holds its parameters in uniforms
 GLSL_VERSION = "#version 330 core\n"
 
 

@@ -19,7 +19,7 @@ from brdflab.sources.measured import MeasuredTable, tabulate
 from brdflab.sources.proxy import proxy_lobes
 from brdflab.io.mesh import Mesh
 from brdflab.render.camera import OrbitCamera, gl_matrix
-from brdflab.render.glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
+from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 from brdflab.lighting.sampling_sets import lobe_shares, sample_set
 
 MODES = ("point", "fis", "sh")
@@ -93,6 +93,8 @@ class ObjectRenderer:
     def set_material(self, material: AnalyticMaterial) -> None:
         if not material.lobes:
             raise BRDFLabError("the material has no lobes to render")
+        if len(material.lobes) > MAX_LOBES:
+            raise BRDFLabError(f"the material has {len(material.lobes):,} lobes; the renderer draws at most {MAX_LOBES}")
         material.validate()
         self.material = material
         self.measured = False

@@ -7,27 +7,42 @@ analytic materials, measured tables, raw samples and simulated materials all qua
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
-from brdflab.material.albedo import energy_check
+import numpy as np
+
+from brdflab.material.albedo import check_cost, energy_check
 from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.sources.measured import read_measured
 from brdflab.io.xmlio import BRDFDocument, MeasuredReference, SimulatedReference, load
+
+Warn = Callable[[str], None]
+# `info` checks energy for at most this many lobe evaluations per file (≈ 10 anisotropic or
+# 120 isotropic lobes, a few seconds); a material or fit beyond what is left is reported
+# as not checked, never silently truncated.
+ENERGY_CHECK_BUDGET = 12_000_000
 
 
 def is_xml(path: Path) -> bool:
     return path.suffix.lower() == ".xml"
 
 
-def resolve_measured(ref: MeasuredReference):
-    """Load the data a measured XML material names, or say exactly what is missing."""
-    if ref.missing:
+def resolve_measured(ref: MeasuredReference, warn: Warn | None = None):
+    """Load the data a measured XML material names, or say exactly what is missing; `warn`
+    hears when the data no longer matches the checksum the material records."""
+    if not ref.path.exists():
         raise BRDFLabError(f"the measured data file {ref.name!r} named in the material is missing", ref.path)
-    return read_measured(ref.path, ref.type)
+    table = read_measured(ref.path, ref.type)
+    problem = ref.checksum_problem()
+    if problem and warn is not None:
+        warn(problem)
+    return table
 
 
-def load_source(path: Path, fitting: int | None = None):
-    """The source in `path`; with `fitting`, the K-th stored fit of an XML material."""
+def load_source(path: Path, fitting: int | None = None, warn: Warn | None = None):
+    """The source in `path`; with `fitting`, the K-th stored fit of an XML material. `warn`
+    hears problems that do not stop the work (a measured file that fails its checksum)."""
     path = Path(path)
     if not path.exists():
         raise BRDFLabError("no such file", path)
@@ -41,7 +56,7 @@ def load_source(path: Path, fitting: int | None = None):
             raise BRDFLabError(f"--fitting {fitting}: the file stores {len(doc.fittings)} fitting(s)", path)
         return doc.fittings[fitting].material
     if isinstance(doc.material, MeasuredReference):
-        return resolve_measured(doc.material)
+        return resolve_measured(doc.material, warn)
     if isinstance(doc.material, SimulatedReference):
         from brdflab.simulation.material import open_simulated
 
@@ -49,8 +64,18 @@ def load_source(path: Path, fitting: int | None = None):
     return doc.material
 
 
+def evaluate_in_chunks(source, wi: np.ndarray, wo: np.ndarray, chunk: int = 1 << 18) -> np.ndarray:
+    """source.evaluate over (N, 3) pairs a chunk at a time, so temporaries stay small for any N."""
+    if len(wi) <= chunk:
+        return source.evaluate(wi, wo)
+    return np.concatenate([source.evaluate(wi[s:s + chunk], wo[s:s + chunk]) for s in range(0, len(wi), chunk)])
+
+
 def describe_file(path: Path) -> dict:
-    """What `brdflab info` prints: the material, its fittings, energy and warnings."""
+    """What `brdflab info` prints: the material, its fittings, energy and warnings.
+
+    Energy checks share ENERGY_CHECK_BUDGET; what does not fit says so (and a warning
+    says how many were skipped), so a 20,000-lobe file is described in seconds."""
     path = Path(path)
     if not path.exists():
         raise BRDFLabError("no such file", path)
@@ -58,12 +83,41 @@ def describe_file(path: Path) -> dict:
         return {"file": str(path), "material": read_measured(path).describe()}
     doc: BRDFDocument = load(path)
     info = doc.describe()
+    budget = EnergyBudget(ENERGY_CHECK_BUDGET)
     if isinstance(doc.material, AnalyticMaterial):
-        info["energy"] = energy_check(doc.material).as_dict()
+        info["energy"] = budget.check(doc.material)
     if isinstance(doc.material, SimulatedReference):
         from brdflab.simulation.material import describe_stored
 
         info["material"] = describe_stored(doc.material, path)
+    if isinstance(doc.material, MeasuredReference):
+        problem = doc.material.checksum_problem()
+        if problem:
+            info["warnings"].append(problem)
     for k, fit in enumerate(doc.fittings):
-        info["fittings"][k]["energy"] = energy_check(fit.material).as_dict()
+        info["fittings"][k]["energy"] = budget.check(fit.material)
+    if budget.skipped:
+        info["warnings"].append(f"energy check skipped for {budget.skipped} of {budget.asked} materials "
+                                f"(more lobes than the check covers in one file; see \"energy\")")
     return info
+
+
+class EnergyBudget:
+    """Energy checks until their summed cost (lobe evaluations) would exceed `total`."""
+
+    def __init__(self, total: int) -> None:
+        self.left = total
+        self.asked = 0
+        self.skipped = 0
+
+    def check(self, material: AnalyticMaterial) -> dict:
+        self.asked += 1
+        cost = check_cost(material)
+        if cost > self.left:
+            self.skipped += 1
+            return {"checked": False,
+                    "reason": f"not checked: {len(material.lobes):,} lobes need {cost:,} lobe evaluations, "
+                              f"more than the {self.left:,} left of the {ENERGY_CHECK_BUDGET:,} that info "
+                              "spends per file"}
+        self.left -= cost
+        return energy_check(material).as_dict()

@@ -3,13 +3,16 @@ MPI car-paint files, all behind the same `evaluate(wi, wo) → (N, C)` interface
 
 from __future__ import annotations
 
+import io
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.bounded import MAX_DATA_BYTES, BoundedFile, read_bounded
 from brdflab.geometry.halfdiff import N_PD, N_TD, N_TH, continuous_bins, from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin, to_half_diff
 from brdflab.geometry.vec import spherical_to_cartesian
 
@@ -18,6 +21,12 @@ MERL_HEADER = np.array([N_TH, N_TD, N_PD], dtype="<i4")
 MERL_COUNT = N_TH * N_TD * N_PD
 SLICE_BYTES = N_TH * N_TD * 3 * 4
 CARPAINT_HEADER = 84
+CARPAINT_BYTES = CARPAINT_HEADER + N_PD * N_TH * N_TD * 3 * 4
+MERL_BYTES = 12 + 3 * MERL_COUNT * 8
+# A measured BRDF value above this (1/sr) is corrupt data, not a material: a mirror's peak bin
+# in MERL's finest θh bin is ~1e7. Larger values would overflow float32 textures and squares.
+MAX_BRDF_VALUE = 1e10
+MAX_SAMPLE_CHANNELS = 64
 
 
 @dataclass
@@ -132,41 +141,53 @@ class MeasuredTable:
 # --------------------------------------------------------------------------------------
 # readers
 
-def _read(path: Path) -> bytes:
-    try:
-        return path.read_bytes()
-    except OSError as e:
-        raise BRDFLabError(f"cannot read: {e.strerror}", path) from None
+def _read_exactly(path: Path, size: int, what: str) -> bytes:
+    """The whole file, which must be exactly `size` bytes (checked before reading)."""
+    with BoundedFile(path, size, what) as f:
+        if f.size != size:
+            raise BRDFLabError(f"truncated: {f.size} bytes, {what} is {size}", path)
+        return f.read(size)
 
 
-def _finish(values: np.ndarray, path: Path, valid: np.ndarray | None = None) -> np.ndarray:
-    """Check a decoded table: NaN/Inf are errors, negative entries are unmeasured."""
-    if not np.all(np.isfinite(values)):
-        bad = int(np.count_nonzero(~np.isfinite(values)))
-        raise BRDFLabError(f"{bad} values are NaN or Inf", path)
-    valid_all = np.all(values >= 0.0, axis=0) if valid is None else valid
-    if not valid_all.any():
+def _checked_values(raw: np.ndarray, path: Path, scale=1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Decoded raw values (C, ...) as float32 BRDF values (raw × per-channel `scale`) and the
+    mask of measured samples. NaN/Inf are errors; a sample with a negative channel is
+    unmeasured (read as 0); a measured value beyond MAX_BRDF_VALUE is an error."""
+    finite = np.isfinite(raw)
+    if not finite.all():
+        raise BRDFLabError(f"{int(np.count_nonzero(~finite))} values are NaN or Inf", path)
+    valid = np.all(raw >= 0.0, axis=0)
+    if not valid.any():
         raise BRDFLabError("every sample is negative (nothing was measured)", path)
-    return valid_all
+    kept = np.where(valid, raw, 0.0)
+    scale = np.broadcast_to(np.asarray(scale, float), (raw.shape[0],))
+    _check_peaks(kept.reshape(raw.shape[0], -1).max(axis=1), scale, path)
+    values = (kept * scale.reshape((-1,) + (1,) * (raw.ndim - 1))).astype(np.float32)
+    return values, valid
+
+
+def _check_peaks(peaks: np.ndarray, scale: np.ndarray, path: Path) -> None:
+    """Refuse a channel whose largest raw value (× its scale) is beyond MAX_BRDF_VALUE."""
+    over = np.flatnonzero(peaks * scale > MAX_BRDF_VALUE)
+    if over.size:
+        c = int(over[0])
+        raise BRDFLabError(f"channel {c} holds {peaks[c]:g}, beyond any real BRDF "
+                           f"(values above {MAX_BRDF_VALUE:g} 1/sr are refused)", path)
 
 
 def read_merl_binary(path: str | os.PathLike) -> MeasuredTable:
     """MERL `.binary`: three int32 dims (90, 90, 180), then 3·90·90·180 float64."""
     path = Path(path)
-    data = _read(path)
-    expected = 12 + 3 * MERL_COUNT * 8
-    if len(data) < 12:
-        raise BRDFLabError(f"truncated: {len(data)} bytes, a MERL header alone is 12", path)
-    dims = np.frombuffer(data[:12], dtype="<i4")
-    if not np.array_equal(dims, MERL_HEADER):
-        raise BRDFLabError(f"header dimensions {tuple(int(d) for d in dims)}, expected (90, 90, 180)", path)
-    if len(data) != expected:
-        what = "truncated" if len(data) < expected else "oversized"
-        raise BRDFLabError(f"{what}: {len(data)} bytes, expected {expected}", path)
-    raw = np.frombuffer(data, dtype="<f8", offset=12).reshape(3, N_TH, N_TD, N_PD)
-    valid = _finish(raw, path)
-    values = (raw * MERL_SCALE[:, None, None, None]).astype(np.float32)
-    values[:, ~valid] = 0.0
+    with BoundedFile(path, MERL_BYTES, "a MERL table") as f:
+        if f.size < 12:
+            raise BRDFLabError(f"truncated: {f.size} bytes, a MERL header alone is 12", path)
+        dims = np.frombuffer(f.read(12), dtype="<i4")
+        if not np.array_equal(dims, MERL_HEADER):
+            raise BRDFLabError(f"header dimensions {tuple(int(d) for d in dims)}, expected (90, 90, 180)", path)
+        if f.size != MERL_BYTES:
+            raise BRDFLabError(f"truncated: {f.size} bytes, expected {MERL_BYTES}", path)
+        raw = np.frombuffer(f.read_rest(), dtype="<f8").reshape(3, N_TH, N_TD, N_PD)
+    values, valid = _checked_values(raw, path, MERL_SCALE)
     return MeasuredTable(values, valid, path.stem, "MERLBRDFDatabase", path)
 
 
@@ -185,31 +206,20 @@ def write_merl_binary(table: MeasuredTable, path: str | os.PathLike) -> None:
 def read_slice(path: str | os.PathLike) -> MeasuredTable:
     """A bivariate MERL slice: 90 × 90 RGB float32, index 3·(90·θd_bin + θh_bin) + c."""
     path = Path(path)
-    data = _read(path)
-    if len(data) != SLICE_BYTES:
-        what = "truncated" if len(data) < SLICE_BYTES else "oversized"
-        raise BRDFLabError(f"{what}: {len(data)} bytes, a slice is {SLICE_BYTES}", path)
+    data = _read_exactly(path, SLICE_BYTES, "a slice")
     raw = np.frombuffer(data, dtype="<f4").reshape(N_TD, N_TH, 3)  # [θd, θh, c]
-    values = np.ascontiguousarray(raw.transpose(2, 1, 0))[..., None]  # (3, θh, θd, 1)
-    valid = _finish(values, path)
-    values = np.where(valid, values, 0.0).astype(np.float32)
+    values, valid = _checked_values(raw.transpose(2, 1, 0)[..., None], path)  # (3, θh, θd, 1)
     return MeasuredTable(values, valid, path.stem, "BivariateSlice", path)
 
 
 def read_carpaint(path: str | os.PathLike) -> MeasuredTable:
     """MPI car paint: 84-byte header, then float32 RGB over φd (180) × θh (90) × θd (90)."""
     path = Path(path)
-    data = _read(path)
-    expected = CARPAINT_HEADER + N_PD * N_TH * N_TD * 3 * 4
-    if len(data) != expected:
-        what = "truncated" if len(data) < expected else "oversized"
-        raise BRDFLabError(f"{what}: {len(data)} bytes, expected {expected}", path)
+    data = _read_exactly(path, CARPAINT_BYTES, "an MPI car paint file")
     raw = np.frombuffer(data, dtype="<f4", offset=CARPAINT_HEADER).reshape(N_PD, N_TH, N_TD, 3)
-    if not np.all(np.isfinite(raw)):
-        raise BRDFLabError("values are NaN or Inf", path)
-    values = np.ascontiguousarray(np.maximum(raw, 0.0).transpose(3, 1, 2, 0)).astype(np.float32)
+    values, _ = _checked_values(np.maximum(raw, 0.0).transpose(3, 1, 2, 0), path)  # negatives read as 0
     valid = np.ones(values.shape[1:], bool)
-    return MeasuredTable(values, valid, path.stem, "MPICarPaint", path)
+    return MeasuredTable(np.ascontiguousarray(values), valid, path.stem, "MPICarPaint", path)
 
 
 @dataclass
@@ -257,31 +267,50 @@ class RawSamples:
 
 
 def read_raw_samples(path: str | os.PathLike) -> RawSamples:
+    """Text rows `θi φi θo φo v0 v1 …` (radians; spaces or commas; `#` comments), parsed by NumPy.
+
+    Errors name the line and the field, never the line's text (the file may be anybody's).
+    """
     path = Path(path)
-    text = _read(path).decode("utf-8", errors="replace")
-    rows = []
-    for lineno, line in enumerate(text.splitlines(), 1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
-        parts = s.replace(",", " ").split()
-        try:
-            row = [float(p) for p in parts]
-        except ValueError:
-            raise BRDFLabError(f"line {lineno}: not a number in {s[:60]!r}", path) from None
-        if len(row) < 5:
-            raise BRDFLabError(f"line {lineno}: expected θi, φi, θo, φo and at least one value, got {len(row)} fields", path)
-        if rows and len(row) != len(rows[0]):
-            raise BRDFLabError(f"line {lineno}: {len(row)} fields, earlier lines have {len(rows[0])}", path)
-        if not all(np.isfinite(row)):
-            raise BRDFLabError(f"line {lineno}: NaN or Inf", path)
-        rows.append(row)
-    if not rows:
+    text = read_bounded(path, MAX_DATA_BYTES, "a raw sample file").decode("utf-8", errors="replace")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "input contained no data" is reported below
+            a = np.loadtxt(io.StringIO(text.replace(",", " ")), comments="#", ndmin=2)
+    except ValueError:
+        raise BRDFLabError(_first_bad_line(text), path) from None
+    if a.size == 0:
         raise BRDFLabError("no samples", path)
-    a = np.array(rows)
+    if not 5 <= a.shape[1] <= 4 + MAX_SAMPLE_CHANNELS:
+        raise BRDFLabError(_first_bad_line(text), path)
+    finite = np.isfinite(a).all(axis=1)
+    if not finite.all():
+        raise BRDFLabError(f"sample {int(np.argmin(finite)) + 1}: NaN or Inf", path)
+    _check_peaks(np.abs(a[:, 4:]).max(axis=0), np.ones(a.shape[1] - 4), path)
     wi = spherical_to_cartesian(a[:, 0], a[:, 1])
     wo = spherical_to_cartesian(a[:, 2], a[:, 3])
     return RawSamples(wi, wo, a[:, 4:], path.stem, path)
+
+
+def _first_bad_line(text: str) -> str:
+    """Where a raw sample file stops being numbers: 'line N: …', without the line's text."""
+    width = None
+    for lineno, line in enumerate(text.splitlines(), 1):
+        fields = line.split("#", 1)[0].replace(",", " ").split()
+        if not fields:
+            continue
+        for k, f in enumerate(fields, 1):
+            try:
+                float(f)
+            except ValueError:
+                return f"line {lineno}: not a number (field {k})"
+        if not 5 <= len(fields) <= 4 + MAX_SAMPLE_CHANNELS:
+            return (f"line {lineno}: expected θi, φi, θo, φo and 1..{MAX_SAMPLE_CHANNELS} values, "
+                    f"got {len(fields)} fields")
+        if width is not None and len(fields) != width:
+            return f"line {lineno}: {len(fields)} fields, earlier lines have {width}"
+        width = len(fields)
+    return "not a table of numbers"
 
 
 READERS = {

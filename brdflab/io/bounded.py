@@ -1,0 +1,101 @@
+"""Reading files a user names, in bounded time and memory.
+
+Special files (FIFOs, devices, directories, sockets) are refused by their type: a FIFO
+would block forever and /dev/zero never ends. Sizes are checked against what the format
+allows before a byte is read, so a 20 GB sparse file costs one `fstat`. The file is opened
+with O_NONBLOCK (opening a FIFO then returns at once) and checked on the open descriptor,
+so a file swapped between the check and the read is still caught.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+from brdflab.errors import BRDFLabError
+
+MAX_DATA_BYTES = 256 << 20  # any measured data file (a MERL table is 35 MB)
+
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def kind_problem(mode: int) -> str | None:
+    """Why a file of this st_mode cannot be read as data, or None for a regular file."""
+    if stat.S_ISREG(mode):
+        return None
+    kind = next((what for test, what in _KINDS if test(mode)), "a special file")
+    return f"not a regular file: {kind}"
+
+
+def checked_size(path: Path, limit: int, what: str = "such a file") -> int:
+    """The size of the regular file at `path`, refusing special files and files over `limit` bytes."""
+    try:
+        st = os.stat(path)
+    except OSError as e:
+        raise BRDFLabError(f"cannot read: {e.strerror}", path) from None
+    return _checked(path, st, limit, what)
+
+
+def _checked(path: Path, st: os.stat_result, limit: int, what: str) -> int:
+    problem = kind_problem(st.st_mode)
+    if problem:
+        raise BRDFLabError(problem, path)
+    if st.st_size > limit:
+        raise BRDFLabError(f"oversized: {st.st_size} bytes, {what} has at most {limit}", path)
+    return st.st_size
+
+
+class BoundedFile:
+    """A regular file opened for reading after its type and size were checked.
+
+    `size` is known before reading; `read(n)` returns exactly n bytes or raises (the file
+    changed under us). Use as a context manager.
+    """
+
+    def __init__(self, path: str | os.PathLike, limit: int, what: str = "such a file") -> None:
+        self.path = Path(path)
+        try:
+            fd = os.open(self.path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+        except OSError as e:
+            raise BRDFLabError(f"cannot read: {e.strerror}", self.path) from None
+        try:
+            self.size = _checked(self.path, os.fstat(fd), limit, what)
+            os.set_blocking(fd, True)
+        except BaseException:
+            os.close(fd)
+            raise
+        self._file = os.fdopen(fd, "rb")
+
+    def read(self, n: int) -> bytes:
+        try:
+            data = self._file.read(n)
+        except OSError as e:
+            raise BRDFLabError(f"cannot read: {e.strerror}", self.path) from None
+        if len(data) != n:
+            raise BRDFLabError(f"the file changed while it was read ({len(data)} of {n} bytes)", self.path)
+        return data
+
+    def tell(self) -> int:
+        return self._file.tell()
+
+    @property
+    def stream(self):
+        """The underlying binary file, for parsers that read a header themselves."""
+        return self._file
+
+    def read_rest(self) -> bytes:
+        return self.read(self.size - self._file.tell())
+
+    def __enter__(self) -> "BoundedFile":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._file.close()
+
+
+def read_bounded(path: str | os.PathLike, limit: int, what: str = "such a file") -> bytes:
+    """All bytes of a regular file of at most `limit` bytes (`what` names the kind in errors)."""
+    with BoundedFile(path, limit, what) as f:
+        return f.read(f.size)
