@@ -23,15 +23,12 @@ def worker_pool() -> ProcessPoolExecutor:
 
 
 def stop_pool(pool: ProcessPoolExecutor | None) -> None:
-    """Shut a worker pool down now: queued work is dropped and a running job is not waited
-    for (its process is ended), so closing the window never waits for, or leaves, a worker."""
-    if pool is None:
-        return
-    processes = list(getattr(pool, "_processes", {}).values())  # the executor has no public kill
-    pool.shutdown(wait=False, cancel_futures=True)
-    for process in processes:
-        if process.is_alive():
-            process.terminate()
+    """Shut a worker pool down without waiting: queued work is dropped; a job already running
+    finishes in its process, which then exits. (Terminating the process instead can cut a
+    result in half in the pool's pipe, and the pool's manager thread then waits for the rest
+    forever: Python's exit hung on it.)"""
+    if pool is not None:
+        pool.shutdown(wait=False, cancel_futures=True)
 
 
 class LatestOnly(QObject):
