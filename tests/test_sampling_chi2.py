@@ -1,6 +1,7 @@
 """Samplers against their own pdf (χ², in the style of pbrt-v4 and Mitsuba 3) and against the
 lobe (white furnace), for every importance-sampled model at smooth, rough and anisotropic
-settings — sharp settings are where samplers break (issue 12)."""
+settings — sharp settings are where samplers break (issue 12). A sampler given the pdf of a 10 % different
+exponent fails the χ² test by thousands."""
 
 import numpy as np
 import pytest
@@ -33,23 +34,24 @@ VIEWS_DEG = [(30.0, 20.0), (75.0, 130.0)]  # a moderate and a grazing view
 CASES = [(m.name, k, view) for m in all_models() if m.samplable
          for k in range(len(SETTINGS.get(m.name, [{}]))) for view in VIEWS_DEG]
 ALPHA = 1.0 - (1.0 - 0.01) ** (1.0 / len(CASES))  # significance 0.01 over every run (Šidák)
-# Found by this test and not resolved yet: anisotropic samplers at a grazing view (75°) disagree
-# with their pdf (χ² 449–5,950 against 45–333 degrees of freedom); at 30° they pass, and every
-# isotropic setting passes at both views. Whether the pdf, the sampler or this quadrature of a
-# stretched lobe near wo·h = 0 is wrong is open. strict: the mark fails once a fix lands.
-KNOWN_CHI2_FAILURES = {("AshikhminShirley", 0), ("AshikhminShirley", 2), ("Kurt", 0), ("Kurt", 2), ("Ward", 2),
-                       ("WardDuer", 2)}
-CHI2_CASES = [pytest.param(*case, marks=pytest.mark.xfail(
-    strict=True, reason="anisotropic sampler against its pdf at a grazing view: open (issue 12)"))
-    if (case[0], case[1]) in KNOWN_CHI2_FAILURES and case[2] == VIEWS_DEG[1] else case for case in CASES]
 
 
 def params_of(name: str, k: int) -> dict:
     return SETTINGS.get(name, [{}])[k]
 
 
+CAP_COS = np.cos(np.radians(10.0))  # the cap around −wo, below the surface (see in_cap)
+
+
+def in_cap(dirs: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """Directions within 10° of −wo. There wo·h → 0, and a half-vector pdf D(h) cos θh / (4 wo·h)
+    has an integrable singularity that no fixed quadrature resolves: the cap is one cell whose
+    expected mass is what the rest leaves of 1 (test_sampling.py checks ∫ pdf = 1)."""
+    return dirs @ -wo > CAP_COS
+
+
 def cell_integrals(model, params: dict, wo: np.ndarray) -> np.ndarray:
-    """∫ pdf dω over each θ × φ cell (midpoint rule, SUB × SUB points per cell, sin θ dθ dφ)."""
+    """∫ pdf dω over each θ × φ cell outside the cap (midpoint rule, SUB × SUB points per cell)."""
     t = (np.arange(N_THETA * SUB) + 0.5) * (np.pi / (N_THETA * SUB))
     p = (np.arange(N_PHI * SUB) + 0.5) * (2.0 * np.pi / (N_PHI * SUB))
     out = np.empty((N_THETA, N_PHI))
@@ -58,11 +60,12 @@ def cell_integrals(model, params: dict, wo: np.ndarray) -> np.ndarray:
         tt, pp = np.meshgrid(t[row * SUB:(row + 1) * SUB], p, indexing="ij")
         dirs = spherical_to_cartesian(tt, pp)
         density = model.pdf(dirs, np.broadcast_to(wo, dirs.shape), params) * np.sin(tt) * weight
+        density[in_cap(dirs, wo)] = 0.0
         out[row] = density.reshape(SUB, N_PHI, SUB).sum(axis=(0, 2))
     return out
 
 
-@pytest.mark.parametrize("name,k,view", CHI2_CASES, ids=lambda x: str(x))
+@pytest.mark.parametrize("name,k,view", CASES, ids=lambda x: str(x))
 def test_sampler_passes_chi2_against_its_pdf(name, k, view):
     model, params = get_model(name), params_of(name, k)
     wo = spherical_to_cartesian(np.radians(view[0]), np.radians(view[1]))
@@ -70,6 +73,8 @@ def test_sampler_passes_chi2_against_its_pdf(name, k, view):
     wi = model.sample(np.broadcast_to(wo, (N_SAMPLES, 3)), rng.random((N_SAMPLES, 2)), params)
     ok = np.isfinite(wi).all(axis=1) & (np.linalg.norm(wi, axis=1) > 0.5)
     wi = wi[ok] / np.linalg.norm(wi[ok], axis=1, keepdims=True)
+    cap = in_cap(wi, wo)
+    wi = wi[~cap]
     theta = np.arccos(np.clip(wi[:, 2], -1.0, 1.0))
     phi = np.mod(np.arctan2(wi[:, 1], wi[:, 0]), 2.0 * np.pi)
     observed, _, _ = np.histogram2d(theta, phi, bins=(N_THETA, N_PHI), range=((0, np.pi), (0, 2 * np.pi)))
@@ -78,8 +83,8 @@ def test_sampler_passes_chi2_against_its_pdf(name, k, view):
     # no sample where the pdf is zero
     empty = integrals <= 1e-12
     assert observed[empty].sum() == 0, f"{int(observed[empty].sum())} samples in cells of zero pdf"
-    # the samples that came back as no direction: their own cell, expected from the missing pdf mass
-    observed = np.append(observed.ravel(), N_SAMPLES - ok.sum())
+    # the cap and the samples that came back as no direction: one cell, expected what is left of 1
+    observed = np.append(observed.ravel(), N_SAMPLES - ok.sum() + cap.sum())
     expected = np.append(expected.ravel(), max(N_SAMPLES * (1.0 - integrals.sum()), 0.0))
     small = expected < MIN_EXPECTED  # pooled into one cell
     obs = np.append(observed[~small], observed[small].sum())
