@@ -36,13 +36,20 @@ def bound_warnings(material: AnalyticMaterial) -> list[str]:
     return out
 
 
+def energy_words(conserves: bool, max_albedo) -> str | None:
+    """None when albedo ≤ 1 for every view; else what is violated and by how much (also for
+    energy checks run elsewhere, e.g. the window's worker process)."""
+    if conserves:
+        return None
+    worst = max(float(a) for a in max_albedo)
+    return f"albedo up to {worst:.3g} > 1: it reflects more light than it receives (energy is not conserved)"
+
+
 def energy_warnings(material: AnalyticMaterial) -> list[str]:
     """A line when some channel reflects more than it receives (albedo > 1)."""
     report = energy_check(material)
-    if report.conserves:
-        return []
-    worst = max(float(a) for a in report.max_albedo)
-    return [f"violates energy conservation: albedo up to {worst:.3g} (> 1)"]
+    words = energy_words(bool(report.conserves), report.max_albedo)
+    return [words] if words else []
 
 
 def suspicions(material: AnalyticMaterial) -> list[str]:

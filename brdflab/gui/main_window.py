@@ -27,7 +27,7 @@ from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.background import FitProcess, LatestOnly
 from brdflab.gui.panels import (SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel,
                                 XmlView, energy_summaries)
-from brdflab.material.diagnostics import energy_words, parameters_at_bounds
+from brdflab.fitting.diagnosis import bound_warnings, energy_words
 
 LAYOUT_VERSION = 2  # the lobe viewer became the central view: older saved layouts do not apply
 CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
@@ -423,9 +423,9 @@ class MainWindow(QMainWindow):
         ws = self.workspace
         found = []
         if ws.fitted() is not None:
-            found += [f"fit {ws.shown_fit}, " + b for b in parameters_at_bounds(ws.fitted())]
+            found += [f"fit {ws.shown_fit}, " + b for b in bound_warnings(ws.fitted())]
         if ws.analytic is not None:
-            found += parameters_at_bounds(ws.analytic)
+            found += bound_warnings(ws.analytic)
         more = f" and {len(found) - 3} more" if len(found) > 3 else ""
         self.set_warning("bounds", "At a bound: " + "; ".join(found[:3]) + more if found else None)
 
