@@ -12,7 +12,7 @@ from PySide6.QtOpenGLWidgets import QOpenGLWidget
 
 from brdflab.errors import BRDFLabError
 from brdflab.render.lobe_view import LobeViewer
-from brdflab.render.object_view import Display, ObjectRenderer, RenderSettings
+from brdflab.render.object_view import Display, ObjectRenderer, RenderSettings, negative_pixels
 
 
 def set_default_surface_format() -> None:
@@ -25,13 +25,9 @@ def set_default_surface_format() -> None:
 
 
 def clamped_fraction(rgba_bytes: bytes) -> float:
-    """Of the pixels a surface covers (alpha > 0), the fraction with a negative channel: SH
-    ringing, which the display clamps to black."""
-    rgba = np.frombuffer(rgba_bytes, np.float32).reshape(-1, 4)
-    covered = rgba[:, 3] > 0
-    if not covered.any():
-        return 0.0
-    return float((rgba[covered, :3].min(axis=1) < 0).mean())
+    """Of the pixels a surface covers, the fraction SH ringing made negative (clamped to black)."""
+    clamped, covered = negative_pixels(np.frombuffer(rgba_bytes, np.float32))
+    return clamped / covered if covered else 0.0
 
 
 class _GLView(QOpenGLWidget):

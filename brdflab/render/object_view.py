@@ -418,12 +418,20 @@ class ObjectRenderer:
         out = np.ascontiguousarray(raw[:, :, :3] / image.samples)
         if settings.mode == "sh":
             # ringing can make the truncated integral negative: clamp it, and say how often
-            self.clamped_pixels = int(((out < 0).any(axis=2) & (raw[:, :, 3] > 0)).sum())
+            self.clamped_pixels, _ = negative_pixels(raw)
             out = np.maximum(out, 0.0)
         return out
 
 
 GL_BLEND = 0x0BE2
+
+
+def negative_pixels(rgba: np.ndarray) -> tuple[int, int]:
+    """(pixels with a negative channel, pixels a surface covers) of an accumulated RGBA image:
+    SH ringing, which renders and displays clamp to black."""
+    rgba = np.asarray(rgba).reshape(-1, 4)
+    covered = rgba[:, 3] > 0
+    return int((covered & (rgba[:, :3] < 0).any(axis=1)).sum()), int(covered.sum())
 
 
 def _set_state(ctx: moderngl.Context, depth: bool, blend: bool) -> None:
