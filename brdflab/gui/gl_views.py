@@ -231,17 +231,22 @@ class ObjectView(_GLView):
             self._stale = self._progressive
         else:
             old.append(self._progressive)
-        for image in old:
-            if image is not None and self.ctx is not None:
-                self.when_ready(image.release)
+        if self.ctx is not None:
+            self.when_ready(lambda: self._release(*old))
         self._progressive = self._progressive_b = None
         self._timer.start()
         self.update()
 
+    @staticmethod
+    def _release(*images) -> None:
+        """Free the images' GL textures (the context must be current)."""
+        for image in images:
+            if image is not None:
+                image.release()
+
     def _drop_stale(self) -> None:  # context current
-        if self._stale is not None:
-            self._stale.release()
-            self._stale = None
+        self._release(self._stale)
+        self._stale = None
 
     @property
     def comparing(self) -> bool:
@@ -301,9 +306,7 @@ class ObjectView(_GLView):
             if self._table_pending():
                 return
             if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
-                for image in (self._progressive, self._progressive_b):
-                    if image is not None:
-                        image.release()
+                self._release(self._progressive, self._progressive_b)
                 settings = RenderSettings(**{**self.settings.__dict__, "width": w, "height": h})
                 self._progressive = self.renderer.start_progressive(settings)
                 self._progressive_b = self._second_renderer().start_progressive(settings) if self.comparing else None
@@ -340,7 +343,7 @@ class ObjectView(_GLView):
         image = self._progressive
         if image is None or image.samples == 0:
             image = self._stale if self._stale is not None and (self._stale.settings.width, self._stale.settings.height) == (w, h) else None
-        elif self._stale is not None:
+        else:
             self._drop_stale()
         if self.blank or image is None:
             fbo.clear(0.12, 0.12, 0.14, 1.0)
@@ -354,8 +357,6 @@ class ObjectView(_GLView):
                           compare=self.compare, split=self.split)
 
     def resizeGL(self, w: int, h: int) -> None:
-        for image in (self._progressive, self._progressive_b, self._stale):
-            if image is not None:
-                image.release()  # the context is current during resizeGL
+        self._release(self._progressive, self._progressive_b, self._stale)  # current during resizeGL
         self._progressive = self._progressive_b = self._stale = None
         self._timer.start()

@@ -198,7 +198,6 @@ class MainWindow(QMainWindow):
         self.resizeDocks([self._docks["Plots"]], [250], Qt.Vertical)
         self._default_layout = self.saveState(LAYOUT_VERSION)
         self._warnings: dict[str, str] = {}  # what is wrong, by topic, shown above the views
-        self._fit_energy: list | None = None
         self._fits_energy_job = LatestOnly(energy_summaries, self)
         self._fits_energy_job.done.connect(self._fits_energy_known)
 
@@ -389,7 +388,6 @@ class MainWindow(QMainWindow):
 
     def fittings_changed(self) -> None:
         ws = self.workspace
-        self._fit_energy = None
         self.fitting.show_fits(ws.document.fittings, ws.shown_fit)
         self._fits_energy_job.request([f.material for f in ws.document.fittings])
         self._check_bounds()
@@ -414,7 +412,6 @@ class MainWindow(QMainWindow):
         fittings = self.workspace.document.fittings
         if len(summaries) != len(fittings):
             return  # an answer about fits that have changed since: a newer request is on its way
-        self._fit_energy = summaries
         self.fitting.show_fits(fittings, self.workspace.shown_fit, summaries)
         bad = [f"fit {k}: {energy_words(*s)}" for k, s in enumerate(summaries) if s is not None and not s[0]]
         self.set_warning("fits", "Stored " + "; ".join(bad) if bad else None)
