@@ -1,4 +1,4 @@
-"""The command line: `brdflab [gui|models|examples|info|eval|fit|batch|render|simulate|export|bench] ...`.
+"""The command line: `brdflab [gui|models|examples|info|eval|fit|batch|render|simulate|export|bench|study] ...`.
 
 Every command prints one JSON object as the last line of stdout with --json. Bad
 input raises BRDFLabError, which becomes a one-line message on stderr and exit
@@ -289,6 +289,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_study(args: argparse.Namespace) -> int:
+    from brdflab.io.atomic import ensure_folder
+    from brdflab.study.framework import StudyContext, run_study, stderr_progress
+
+    out = ensure_folder(args.out)  # before minutes of measuring
+    result = run_study(out, StudyContext(quick=args.quick, progress=stderr_progress), args.part or None)
+    files = [f for charts in result.charts.values() for f in charts]
+    lines = [f"{name:<12} {result.seconds[name]:7.1f} s  {', '.join(charts)}" for name, charts in result.charts.items()]
+    _emit(args, {"out": str(out), "files": ["study.json", *files], "seconds": result.seconds, "charts": result.charts},
+          "\n".join(lines + [f"wrote {out}/study.json and {len(files)} charts"]))
+    return 0
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     from brdflab.io.xmlio import BRDFDocument, save
     from brdflab.simulation.material import SimulationSpec, reference_of, simulated_material
@@ -386,6 +399,7 @@ EXAMPLES = {
     "export": "brdflab export example:fig2 --format glsl --out fig2.glsl\n"
               "  brdflab export gold.slice --format merl --out gold.binary",
     "bench": "brdflab bench --quick --out bench-out/",
+    "study": "brdflab study --quick --out study-out/\n  brdflab study --part viewer --out docs/study",
 }
 
 
@@ -526,6 +540,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for bench.json and the charts (created if missing)")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_bench)
+
+    p = _add(sub, "study", "measure speed against accuracy for every method; charts (PNG) and study.json")
+    p.add_argument("--quick", action="store_true", help="small sizes and test matrices (minutes, as CI runs it)")
+    p.add_argument("--part", action="append", metavar="PART",
+                   help="run only this part (repeatable; default: all; an unknown name lists the parts)")
+    p.add_argument("--out", required=True, help="folder for study.json and the charts (created if missing)")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_study)
     return parser
 
 

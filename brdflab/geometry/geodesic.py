@@ -32,10 +32,15 @@ def subdivide(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.vstack([v, mid]), faces
 
 
+RIM_Z = 1e-3  # 0.06° above the horizon
+
+
 @lru_cache(maxsize=8)
 def geodesic_hemisphere(level: int) -> tuple[np.ndarray, np.ndarray]:
     """Unit directions with z ≥ 0 and the triangles among them, `level` subdivisions deep
-    (level 7: about 164,000 triangles; vertices on the rim are pushed onto z = 0)."""
+    (level 7: about 164,000 triangles). Vertices on or below the rim are pushed just above
+    it (z = RIM_Z): a BRDF is zero at z = 0 exactly, so a rim at z = 0 would fold every
+    lobe that is non-zero at grazing angles (a Lambertian) back to the origin."""
     if not 0 <= level <= 8:
         raise ValueError(f"subdivision level {level} is outside 0..8")
     v, f = icosahedron()
@@ -45,7 +50,7 @@ def geodesic_hemisphere(level: int) -> tuple[np.ndarray, np.ndarray]:
     f = f[keep]
     used = np.unique(f)
     out = v[used].copy()
-    out[:, 2] = np.maximum(out[:, 2], 0.0)
+    out[:, 2] = np.maximum(out[:, 2], RIM_Z)
     out /= np.linalg.norm(out, axis=1, keepdims=True)
     remap = np.full(len(v), -1)
     remap[used] = np.arange(len(used))

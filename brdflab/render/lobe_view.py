@@ -193,20 +193,12 @@ class LobeViewer:
 
     def gain(self) -> float:
         """Scale that makes the largest lobe reach radius 1 (same transfer as the shader)."""
-        s = self.settings
-        dirs = geodesic_hemisphere(min(s.level, 5))[0].astype(float)
-        wi = np.broadcast_to(s.wi, dirs.shape)
+        dirs = geodesic_hemisphere(min(self.settings.level, 5))[0].astype(float)
         peak = 0.0
         for layer in self._layers:
-            if layer is None:
-                continue
-            f = np.asarray(layer.source.evaluate(wi, dirs), float)[:, :3]
-            if f.shape[1] == 1:
-                f = np.repeat(f, 3, axis=1)
-            v = f @ np.array([0.2126, 0.7152, 0.0722]) if s.channel == "luminance" else f[:, CHANNELS[s.channel]]
-            v = np.maximum(v, 0.0) * (np.maximum(dirs[:, 2], 0.0) if s.cosine else 1.0)
-            r = {"linear": v, "cbrt": np.cbrt(v), "log": np.log1p(v)}[s.transfer]
-            peak = max(peak, float(np.nanmax(r)) if r.size else 0.0)
+            if layer is not None:
+                r = lobe_radii(layer.source, self.settings, dirs)
+                peak = max(peak, float(np.nanmax(r)) if r.size else 0.0)
         return 1.0 / peak if peak > 0 else 1.0
 
     def _eye(self) -> np.ndarray:
@@ -246,6 +238,18 @@ class LobeViewer:
             color.release()
             depth.release()
         return np.ascontiguousarray(img)
+
+
+def lobe_radii(source, settings: LobeSettings, wo: np.ndarray) -> np.ndarray:
+    """The lobe surface's radius along each direction wo (N, 3), before the gain: what
+    shaders/lobe_vertex.glsl computes per vertex (channel, cosine, transfer)."""
+    wi = np.broadcast_to(settings.wi, wo.shape)
+    f = np.asarray(source.evaluate(wi, wo), float)[:, :3]
+    if f.shape[1] == 1:
+        f = np.repeat(f, 3, axis=1)
+    v = f @ np.array([0.2126, 0.7152, 0.0722]) if settings.channel == "luminance" else f[:, CHANNELS[settings.channel]]
+    v = np.maximum(v, 0.0) * (np.maximum(wo[:, 2], 0.0) if settings.cosine else 1.0)
+    return {"linear": v, "cbrt": np.cbrt(v), "log": np.log1p(v)}[settings.transfer]
 
 
 # The lobe's frame has z = normal; on screen the normal points up (+Y): rotate z → y.

@@ -1,0 +1,154 @@
+"""`brdflab study`: the lab measuring itself, part by part.
+
+A study part measures one trade-off (numbers, JSON-able) and draws its charts (PNG) from
+those numbers. Parts register here; the command, the CI check and the GUI's Charts dock
+all run them through `run_study`, so a chart always comes from a measurement of that run.
+A part may be scoped to one material and one map (the GUI's current scene) through
+`StudyContext`; without a scope it uses its own test matrix.
+"""
+
+from __future__ import annotations
+
+import importlib
+import io
+import json
+import math
+import platform
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from brdflab.errors import BRDFLabError
+
+Progress = Callable[[str], None]
+
+# the modules that define parts, in the order a study runs them
+PART_MODULES = ("brdflab.study.viewer",)
+
+
+def quiet(message: str) -> None:
+    """No progress output."""
+
+
+def stderr_progress(message: str) -> None:
+    """One line per step on stderr, so a long run shows it is alive."""
+    print(f"brdflab study: {message}", file=sys.stderr, flush=True)
+
+
+@dataclass
+class StudyContext:
+    """What a part measures on. `quick`: small sizes (CI, the GUI). `material`, `source`,
+    `environment`: restrict the part to this scene (None: the part's own test matrix).
+    `cancelled`: polled between steps; a part returns what it has when it turns true."""
+
+    quick: bool = False
+    progress: Progress = quiet
+    material: object | None = None
+    source: object | None = None
+    environment: object | None = None
+    cancelled: Callable[[], bool] = lambda: False
+
+
+@dataclass(frozen=True)
+class Part:
+    name: str
+    title: str
+    measure: Callable[[StudyContext], dict]
+    draw: Callable[[dict, Path], list[str]]
+    lesson: str = ""  # what the charts teach, for the README and the GUI
+
+
+PARTS: dict[str, Part] = {}
+
+
+def register(part: Part) -> Part:
+    PARTS[part.name] = part
+    return part
+
+
+def load_parts() -> dict[str, Part]:
+    for module in PART_MODULES:
+        importlib.import_module(module)
+    return PARTS
+
+
+@dataclass
+class StudyResult:
+    numbers: dict = field(default_factory=dict)
+    charts: dict[str, list[str]] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def run_study(out_dir: Path, context: StudyContext, only: list[str] | None = None) -> StudyResult:
+    """Measure the chosen parts (all by default), draw their charts into `out_dir` and
+    write `study.json` there; every number must be finite (BRDFLabError otherwise)."""
+    from brdflab.io.atomic import atomic_write
+
+    parts = load_parts()
+    names = list(parts) if not only else only
+    unknown = [n for n in names if n not in parts]
+    if unknown:
+        raise BRDFLabError(f"unknown study part {', '.join(unknown)} (parts: {', '.join(parts)})")
+    result = StudyResult()
+    for name in names:
+        part = parts[name]
+        context.progress(f"{part.title}")
+        t0 = time.perf_counter()
+        numbers = part.measure(context)
+        check_finite(numbers, name)
+        result.numbers[name] = numbers
+        result.charts[name] = part.draw(numbers, out_dir)
+        result.seconds[name] = time.perf_counter() - t0
+    payload = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine()},
+               "quick": context.quick, "seconds": result.seconds, "charts": result.charts, "parts": result.numbers}
+    atomic_write(out_dir / "study.json", json.dumps(payload, indent=1).encode())
+    return result
+
+
+def check_finite(numbers, where: str) -> None:
+    """Raise if any number in a part's result is NaN or infinite (None marks a missing value)."""
+    stack = [(numbers, where)]
+    while stack:
+        value, path = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((v, f"{path}.{k}") for k, v in value.items())
+        elif isinstance(value, (list, tuple)):
+            stack.extend((v, f"{path}[{i}]") for i, v in enumerate(value))
+        elif isinstance(value, float) and not math.isfinite(value):
+            raise BRDFLabError(f"study part produced a non-finite number at {path}: {value}")
+
+
+def save_figure(fig, path: Path) -> str:
+    """Save a chart atomically and close it; its file name."""
+    import matplotlib.pyplot as plt
+
+    from brdflab.io.atomic import atomic_write
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    atomic_write(path, buf.getvalue())
+    return path.name
+
+
+def pyplot():
+    """matplotlib's pyplot on the file-only Agg backend (no display, no Qt)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def timed(fn, repeat: int) -> float:
+    """Best of `repeat` wall times in seconds, after one warm-up call (compilation, caches)."""
+    fn()
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best

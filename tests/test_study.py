@@ -1,0 +1,53 @@
+"""`brdflab study`: the framework, and the lobe viewer part (subdivision against shape)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from brdflab.cli import main
+from brdflab.errors import BRDFLabError
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.render.lobe_view import LobeSettings
+from brdflab.study.framework import check_finite
+from brdflab.study.viewer import surface_error
+
+
+def test_a_non_finite_number_anywhere_is_refused():
+    check_finite({"rows": [{"ms": 1.0, "error": None}]}, "part")
+    with pytest.raises(BRDFLabError, match=r"part\.rows\[1\]\.error"):
+        check_finite({"rows": [{"error": 0.1}, {"error": float("nan")}]}, "part")
+
+
+def test_the_drawn_lobe_converges_to_the_exact_one():
+    """A diffuse lobe is a sphere: flat triangles miss it by O(h²), a quarter per level. Its
+    rim must not fold to the origin (a BRDF is 0 at z = 0 exactly; the rim sits above it)."""
+    lambertian = AnalyticMaterial("d", "Linear", 3, [Lobe.create("Lambertian", [0.5] * 3)])
+    errors = [surface_error(lambertian, LobeSettings(transfer="linear"), level)[0] for level in (2, 3, 4)]
+    assert errors[2] < 0.01
+    assert 3.0 < errors[0] / errors[1] < 5.0 and 3.0 < errors[1] / errors[2] < 5.0
+
+
+def test_a_sharp_lobe_needs_more_levels_than_a_broad_one():
+    def glossy(n):
+        return AnalyticMaterial("g", "Linear", 3, [Lobe.create("BlinnPhong", [0.5] * 3, Exponent=n)])
+
+    settings = LobeSettings()
+    assert surface_error(glossy(1000.0), settings, 4)[0] > 4 * surface_error(glossy(20.0), settings, 4)[0]
+
+
+def test_study_quick_writes_charts_and_finite_numbers(tmp_path, capsys):
+    assert main(["study", "--quick", "--part", "viewer", "--out", str(tmp_path), "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert payload["charts"]["viewer"] == ["viewer_subdivision.png"]
+    assert (tmp_path / "viewer_subdivision.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    study = json.loads((tmp_path / "study.json").read_text())
+    rows = study["parts"]["viewer"]["rows"]
+    assert {r["level"] for r in rows} == {2, 3, 4, 5}
+    assert all(np.isfinite(r["ms"]) and r["ms"] > 0 for r in rows)
+
+
+def test_an_unknown_part_is_a_one_line_error(tmp_path, capsys):
+    assert main(["study", "--part", "nope", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "unknown study part nope" in err and "viewer" in err
