@@ -12,6 +12,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from brdflab.geometry.sampling import cosine_hemisphere
 from brdflab.geometry.sobol import scrambled_sobol
 from brdflab.lighting import sh
 from brdflab.errors import BRDFLabError
@@ -41,14 +42,46 @@ def _sobol(n_log2: int) -> np.ndarray:
     return scrambled_sobol(n_log2, seed=11)
 
 
-def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int = 8, chunk: int = 512) -> np.ndarray:
-    """c (size, size, order², C) for every texel of the parabolic view map."""
+PROFILE_ANGLES = 96  # view elevations tabulated for isotropic sources
+PROFILE_SAMPLES_LOG2 = 12  # samples per tabulated elevation (isotropic sources)
+
+
+def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int | None = None,
+               chunk_samples: int = 1 << 17) -> np.ndarray:
+    """c (size, size, order², C) for every texel of the parabolic view map.
+
+    Isotropic sources: c(Rz(φ) v) = Mz(φ) c(v), so the integrals are computed once per view
+    elevation (PROFILE_ANGLES of them, 2^12 samples each by default) and turned about z to
+    every texel. With 2^8 samples per texel, as anisotropic sources still take, the
+    Monte Carlo error of the high bands grew with the order faster than truncation fell
+    (a Lambertian's SH image got worse from order 8 to 12)."""
     order = sh.check_order(order)
     views, _ = parabolic_views(size)
     views = views.reshape(-1, 3)
     proxy = proxy_lobes(source)
     if not proxy.lobes:
         raise BRDFLabError("the material has no lobes to tabulate")
+    if getattr(source, "isotropic", False):
+        log2 = PROFILE_SAMPLES_LOG2 if samples_log2 is None else samples_log2
+        theta = np.arccos(np.clip(views[:, 2], -1.0, 1.0))
+        grid = np.linspace(0.0, theta.max(), PROFILE_ANGLES)
+        profile_views = np.stack([np.sin(grid), np.zeros_like(grid), np.cos(grid)], axis=-1)
+        profile = _view_integrals(source, proxy, profile_views, order, log2, chunk_samples)
+        position = np.interp(theta, grid, np.arange(PROFILE_ANGLES))
+        below = np.minimum(position.astype(int), PROFILE_ANGLES - 2)
+        t = (position - below)[:, None, None]
+        out = sh._rotate_z_many((1.0 - t) * profile[below] + t * profile[below + 1],
+                                np.arctan2(views[:, 1], views[:, 0]))
+    else:
+        out = _view_integrals(source, proxy, views, order, 8 if samples_log2 is None else samples_log2, chunk_samples)
+    if not np.all(np.isfinite(out)):
+        raise BRDFLabError("the BRDF table has non-finite values (check the material's parameters)")
+    return out.reshape(size, size, order * order, source.n_channels)
+
+
+def _view_integrals(source, proxy: AnalyticMaterial, views: np.ndarray, order: int, samples_log2: int,
+                    chunk_samples: int) -> np.ndarray:
+    """c_i(v) (V, order², C) for view directions v (V, 3), by the proxy's mixture sampling."""
     u = _sobol(samples_log2)
     n = len(u)
     split, fractions = sample_set(lobe_shares(proxy), n)
@@ -56,6 +89,7 @@ def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int =
     lobe_of = np.sort(split[:, 2].astype(int))
     n_ch = source.n_channels
     out = np.zeros((len(views), order * order, n_ch))
+    chunk = max(1, chunk_samples // n)
     for start in range(0, len(views), chunk):
         v = views[start:start + chunk]
         wo = np.broadcast_to(v[:, None, :], (len(v), n, 3))
@@ -66,8 +100,6 @@ def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int =
             if model.samplable:
                 wi[:, sel] = model.sample(wo[:, sel], u[sel][None], lobe.params)
             else:
-                from brdflab.geometry.sampling import cosine_hemisphere
-
                 wi[:, sel] = cosine_hemisphere(np.broadcast_to(u[sel][None], (len(v), sel.sum(), 2)))
         pdf = np.zeros((len(v), n))
         for k, lobe in enumerate(proxy.lobes):
@@ -80,9 +112,7 @@ def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int =
         weight = np.where(pdf > 0, np.maximum(wi[..., 2], 0.0) / np.where(pdf > 0, pdf, 1.0), 0.0) / n
         Y = sh.basis(order, wi)
         out[start:start + chunk] = np.einsum("vkn,vkc->vnc", Y, f * weight[..., None])
-    if not np.all(np.isfinite(out)):
-        raise BRDFLabError("the BRDF table has non-finite values (check the material's parameters)")
-    return out.reshape(size, size, order * order, n_ch)
+    return out
 
 
 def lookup(table: np.ndarray, v: np.ndarray) -> np.ndarray:
