@@ -117,24 +117,25 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
         messages.put(("failed", f"the fit failed: {type(e).__name__}: {e}"))
 
 
-class FitProcess(QObject):
-    """One fit in a worker process (the LM loop holds the GIL: in a thread it froze the
-    window); progress, the result or the error come back as signals on the GUI thread.
-    `cancel.set()` stops it, and the best result so far still arrives as `finished`."""
+class ChildJob(QObject):
+    """`target(*args, messages, cancel)` in a spawned worker process (NumPy loops hold the GIL:
+    in a thread they froze the window). The child puts ("started", n), ("progress", x),
+    then ("finished", result) or ("failed", message) on `messages`; they come back as signals
+    on the GUI thread, progress at most once per poll and always the newest. `cancel.set()`
+    asks the child to stop early (it still reports what it has as `finished`)."""
 
-    started = Signal(int)  # samples to fit
+    started = Signal(int)
     progress = Signal(object)
     finished = Signal(object)
     failed = Signal(str)
+    what = "job"  # named in the message when the child dies
 
-    def __init__(self, start, source, sampling: dict, options, parent: QObject | None = None) -> None:
+    def __init__(self, target, args: tuple, parent: QObject | None = None) -> None:
         super().__init__(parent)
         context = multiprocessing.get_context("spawn")
-        self.options = options
         self.cancel = context.Event()
         self._messages = context.Queue()
-        self._process = context.Process(target=_run_fit, daemon=True,
-                                        args=(start, source, sampling, options, self._messages, self.cancel))
+        self._process = context.Process(target=target, daemon=True, args=(*args, self._messages, self.cancel))
         self._poll = QTimer(self, interval=30)
         self._poll.timeout.connect(self._check)
 
@@ -171,7 +172,7 @@ class FitProcess(QObject):
             self.progress.emit(latest)
         if not self._process.is_alive() and self._messages.empty():
             self._end()
-            self.failed.emit(f"the fit's worker process ended unexpectedly (exit code {self._process.exitcode})")
+            self.failed.emit(f"the {self.what}'s worker process ended unexpectedly (exit code {self._process.exitcode})")
 
     def _end(self) -> None:
         self._poll.stop()
@@ -183,3 +184,40 @@ class FitProcess(QObject):
         if self._process.is_alive():
             self._process.kill()
             self._process.join(timeout=5)
+
+
+class FitProcess(ChildJob):
+    """One fit: `started` gives the samples to fit, `finished` the FitResult (the best so far
+    when cancelled)."""
+
+    what = "fit"
+
+    def __init__(self, start, source, sampling: dict, options, parent: QObject | None = None) -> None:
+        super().__init__(_run_fit, (start, source, sampling, options), parent)
+        self.options = options
+
+
+def _run_study(out_dir: str, part: str, scene: dict, messages, cancel) -> None:
+    """The child's side of StudyProcess: one study part on the window's scene, quick sizes."""
+    from pathlib import Path
+
+    from brdflab.study.framework import StudyContext, run_study
+
+    try:
+        context = StudyContext(quick=True, progress=lambda text: messages.put(("progress", text)),
+                               cancelled=cancel.is_set, **scene)
+        result = run_study(Path(out_dir), context, [part])
+        messages.put(("finished", {"charts": result.charts[part], "numbers": result.numbers[part],
+                                   "seconds": result.seconds[part], "stopped": cancel.is_set()}))
+    except Exception as e:  # a failed study is reported in the panel, never raised in the window
+        messages.put(("failed", f"{type(e).__name__}: {e}" if not hasattr(e, "path") else str(e)))
+
+
+class StudyProcess(ChildJob):
+    """One study part (brdflab/study) measured in a worker process: progress lines, then the
+    chart files written into `out_dir`."""
+
+    what = "study"
+
+    def __init__(self, out_dir: str, part: str, scene: dict, parent: QObject | None = None) -> None:
+        super().__init__(_run_study, (out_dir, part, scene), parent)

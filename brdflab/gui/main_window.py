@@ -25,11 +25,12 @@ from brdflab.io.atomic import atomic_write
 from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.background import FitProcess, LatestOnly
+from brdflab.gui.charts import ChartsPanel
 from brdflab.gui.panels import (SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel,
                                 XmlView, energy_summaries)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
 
-LAYOUT_VERSION = 2  # the lobe viewer became the central view: older saved layouts do not apply
+LAYOUT_VERSION = 3  # 2: the lobe viewer became the central view; 3: the Charts dock
 CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
 <table cellspacing=4>
 <tr><td><b>Lobe viewer</b></td><td></td></tr>
@@ -161,6 +162,7 @@ class MainWindow(QMainWindow):
         self.fitting = FittingPanel()
         self.plots = PlotsPanel()
         self.xml = XmlView()
+        self.charts = ChartsPanel(self._study_scene)
         # the lobe viewer is the central, largest view (as in BRDFLab), the object view beside it
         self.views = QSplitter(Qt.Horizontal)
         self.views.setObjectName("views")
@@ -180,16 +182,18 @@ class MainWindow(QMainWindow):
             ("Fitting", self.fitting, Qt.BottomDockWidgetArea),
             ("Plots", self.plots, Qt.BottomDockWidgetArea),
             ("XML", self.xml, Qt.BottomDockWidgetArea),
+            ("Charts", self.charts, Qt.BottomDockWidgetArea),
         ):
             dock = QDockWidget(name, self)
             dock.setObjectName(name)
-            dock.setWidget(_scrolling(widget) if name not in ("Plots", "XML") else widget)
+            dock.setWidget(_scrolling(widget) if name not in ("Plots", "XML", "Charts") else widget)
             self.addDockWidget(area, dock)
             self._docks[name] = dock
         # left: the material over the view options; bottom: fitting beside the plots (XML a tab)
         self.tabifyDockWidget(self._docks["Lobe options"], self._docks["Object view options"])
         self.splitDockWidget(self._docks["Fitting"], self._docks["Plots"], Qt.Horizontal)
         self.tabifyDockWidget(self._docks["Plots"], self._docks["XML"])
+        self.tabifyDockWidget(self._docks["XML"], self._docks["Charts"])
         self._docks["Lobe options"].raise_()
         self._docks["Plots"].raise_()
         self.resizeDocks([self._docks["Material"]], [340], Qt.Horizontal)
@@ -764,12 +768,24 @@ class MainWindow(QMainWindow):
             self._thread.kill()
         self.editor.shutdown()
         self.plots.shutdown()
+        self.charts.shutdown()
         self._fits_energy_job.shutdown()
         self.object_view.shutdown()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState(LAYOUT_VERSION))
         self.settings.setValue("views", self.views.saveState())
         event.accept()
+
+    def _study_scene(self) -> dict:
+        """What the Charts dock measures on: the shown material (the fit when one is shown)
+        and the object view's environment map."""
+        from brdflab.material.analytic import AnalyticMaterial
+
+        shown = self.workspace.fitted() or self.workspace.original()
+        renderer = getattr(self.object_view, "renderer", None)  # none before OpenGL starts
+        scene = {"environment": renderer.environment if renderer is not None else None}
+        scene["material" if isinstance(shown, AnalyticMaterial) else "source"] = shown
+        return scene
 
     def show_error(self, message: str) -> None:
         self.statusBar().showMessage(message, 20000)
