@@ -350,7 +350,7 @@ class ObjectView(_GLView):
             if not self.blank and not self._timer.isActive():
                 self._timer.start()
             return
-        lit_by_map = image.settings.mode in ("fis", "sh")
+        lit_by_map = image.settings.mode in ("fis", "sh", "prefiltered")
         other = self._progressive_b if self.comparing and image is self._progressive and self._progressive_b is not None else None
         self.display.draw(image, self.exposure, self.reinhard, gamma=self.gamma,
                           environment=self.renderer if lit_by_map else None, other=other,
