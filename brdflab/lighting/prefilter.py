@@ -179,12 +179,24 @@ def prefiltered_stack(env: EnvironmentMap) -> PrefilteredStack:
             _CACHE.move_to_end(key)
             return _CACHE[key]
     stack = build_stack(env, key)
+    remember_stack(stack)
+    return stack
+
+
+def is_cached(env: EnvironmentMap) -> bool:
     with _LOCK:
-        _BUILDS[0] += 1
-        _CACHE[key] = stack
+        return map_key(env) in _CACHE
+
+
+def remember_stack(stack: PrefilteredStack) -> None:
+    """Keep a stack built elsewhere (the GUI's worker process) as if built here."""
+    with _LOCK:
+        if stack.key not in _CACHE:
+            _BUILDS[0] += 1
+        _CACHE[stack.key] = stack
+        _CACHE.move_to_end(stack.key)
         while len(_CACHE) > CACHE_SIZE:
             _CACHE.popitem(last=False)
-    return stack
 
 
 def stack_builds() -> int:

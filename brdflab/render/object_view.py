@@ -209,6 +209,10 @@ class ObjectRenderer:
 
         return self._sh_state is not None or is_cached(self.source if self.source is not None else self.material, self.sh_order)
 
+    def prefiltered_ready(self) -> bool:
+        """Whether the prefiltered mode can draw without building the map's stack first."""
+        return self.environment is None or self._prefiltered.ready(self.environment)
+
     def _vertex_frames(self) -> tuple[np.ndarray, np.ndarray]:
         """World → local rotation of every vertex (rows t, b, n, as the fragment shader
         builds them) and every vertex's view direction (world)."""

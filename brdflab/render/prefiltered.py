@@ -28,6 +28,12 @@ class PrefilteredLighting:
         self._stack: tuple[EnvironmentMap, moderngl.TextureArray] | None = None
         self._albedo: tuple[tuple, moderngl.Texture, dict] | None = None
 
+    def ready(self, env: EnvironmentMap) -> bool:
+        """Whether `env`'s stack is uploaded or cached (drawing it builds nothing)."""
+        from brdflab.lighting.prefilter import is_cached
+
+        return (self._stack is not None and self._stack[0] is env) or is_cached(env)
+
     def _stack_texture(self, env: EnvironmentMap) -> moderngl.TextureArray:
         from brdflab.lighting.prefilter import prefiltered_stack
 
