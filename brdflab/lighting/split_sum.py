@@ -6,7 +6,9 @@ where the first is looked up.
 model at every view, not only GGX's) and L̄_k the prefiltered radiance: the irradiance / π for
 diffuse lobes, else the stack at the lobe's direction (axis ∘ wo) and equivalent roughness
 (`LobeModel.split_sum`). What is approximated: the lobe's shape is the one it has at normal
-view around that direction (n = v = r), so the stretching and off-specular shift of real
+view around that direction (n = v = r; the direction is pulled toward n for rough lobes, as
+Frostbite does, Lagarde & de Rousiers 2014 — the cosine and the horizon pull the real lobe's
+light there), so the stretching and off-specular shift of real
 lobes at grazing views, and the horizon's clipping of the lobe, are lost; the lobe's shape
 is a Beckmann or GGX kernel of matched width; anisotropic lobes become isotropic ones of the
 same solid angle. Energy is right at every view (the albedo factor); where it goes is not.
@@ -40,6 +42,14 @@ class LobeSplit:
     layers: tuple[int, int, float]
     axis: tuple[float, float, float]
     diffuse_share: float
+    toward_axis: float = 1.0  # the lookup direction: normalize(mix(n, axis ∘ wo, toward_axis))
+
+
+def dominant_weight(alpha: float) -> float:
+    """How far the lookup goes from n toward the lobe's axis: (1 − α)(√(1 − α) + α), the
+    'specular dominant direction' of Lagarde & de Rousiers 2014 (Frostbite), fitted for GGX."""
+    a = float(np.clip(alpha, 0.0, 1.0))
+    return (1.0 - a) * (np.sqrt(1.0 - a) + a)
 
 
 def albedo_cosines(size: int = ALBEDO_SIZE) -> np.ndarray:
@@ -62,7 +72,7 @@ def lobe_split(lobe: Lobe) -> LobeSplit:
     if rule.kind == "diffuse":
         return LobeSplit(lobe_albedo_table(lobe), (0, 0, 0.0), (0.0, 0.0, 1.0), 1.0)
     return LobeSplit(lobe_albedo_table(lobe), layer_blend(rule.kernel, rule.roughness), rule.axis,
-                     float(rule.diffuse_share))
+                     float(rule.diffuse_share), dominant_weight(rule.roughness))
 
 
 @lru_cache(maxsize=256)
@@ -74,6 +84,12 @@ def material_split(material: AnalyticMaterial) -> list[LobeSplit]:
     """Every lobe's split (cached per model and parameters: a GUI slider redraws cheaply)."""
     return [_cached_split(l.model.name, tuple(sorted((k, float(v)) for k, v in l.params.items())))
             for l in material.lobes]
+
+
+def unit(v: np.ndarray) -> np.ndarray:
+    """v normalised; +Z where it is (nearly) zero, as the shader's stable_axis."""
+    length = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.where(length > 1e-9, v / np.maximum(length, 1e-300), np.array([0.0, 0.0, 1.0]))
 
 
 def sample_latlong(layer: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -108,8 +124,8 @@ def prefiltered_image(material: AnalyticMaterial, env: EnvironmentMap, width: in
         albedo = np.interp(np.clip(wo[:, 2], 0.0, 1.0), cosines, split.albedo)
         light = split.diffuse_share * irradiance / np.pi
         if split.diffuse_share < 1.0:
-            local = np.asarray(split.axis) * wo
-            local /= np.maximum(np.linalg.norm(local, axis=-1, keepdims=True), 1e-9)
+            local = unit(split.toward_axis * unit(np.asarray(split.axis) * wo)
+                         + (1.0 - split.toward_axis) * np.array([0.0, 0.0, 1.0]))
             d = local[:, :1] * t + local[:, 1:2] * b + local[:, 2:] * n
             lo, hi, w = split.layers
             glossy = (1 - w) * sample_latlong(stack.layers[lo], d) + w * sample_latlong(stack.layers[hi], d)

@@ -59,7 +59,7 @@ class PrefilteredLighting:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # interpolated in the shader
             uniforms = {
                 "u_pref_layers": np.array([[*s.layers, s.diffuse_share] for s in splits], np.float32),
-                "u_pref_axis": np.array([s.axis for s in splits], np.float32),
+                "u_pref_axis": np.array([[*s.axis, s.toward_axis] for s in splits], np.float32),
                 "u_pref_albedo_size": float(table.shape[1]),
             }
             self._albedo = (key, tex, uniforms)
