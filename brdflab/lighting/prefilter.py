@@ -2,9 +2,10 @@
 
 The first factor: the map convolved, once per roughness, into a stack of lat-long layers:
 layer 0 holds the irradiance E(n) = ∫ L(ω) max(0, n·ω) dω (the exact cosine convolution, so a
-Lambertian lobe needs no SH truncation), then, for each kernel (Beckmann, GGX), one layer per
-α in ALPHAS: L̄(r) = ∫ L(l) D(h) max(0, r·l) dl / ∫ D(h) max(0, r·l) dl with h = normalize(r + l),
-the n = v = r assumption (the lobe keeps the shape it has at normal view), Karis's r·l weight.
+Lambertian lobe needs no SH truncation), then, for each kernel (Beckmann, GGX, Phong), one layer
+per α in ALPHAS: L̄(r) = ∫ L(l) D(h) max(0, r·l) dl / ∫ D(h) max(0, r·l) dl with h = normalize(r + l),
+the n = v = r assumption (the lobe keeps the shape it has at normal view), Karis's r·l weight;
+the Phong kernel is the wi-space lobe of Phong and Lafortune itself, cos^n(r, l) max(0, r·l).
 
 Each layer is the same quadrature over the map's texels as `reference_view.environment_image`
 (texel radiance × exact solid angle, at texel centres), computed in O(H² W log W): the
@@ -28,7 +29,7 @@ from brdflab.lighting.envmap import EnvironmentMap
 
 # α of each layer of a kernel: 0 is the map itself (a mirror); ratios of ~1.4 between layers
 ALPHAS = (0.0, 0.02, 0.03, 0.045, 0.065, 0.09, 0.13, 0.18, 0.25, 0.35, 0.5, 0.7, 1.0)
-KERNELS = ("beckmann", "ggx")
+KERNELS = ("beckmann", "ggx", "phong")
 MAX_WIDTH = 256  # stack resolution: 256 × 128 texels (~1.4°) at most
 ROWS_PER_CHUNK = 16  # output rows convolved at once (bounds the kernel's memory)
 CACHE_SIZE = 4
@@ -140,8 +141,18 @@ def cosine_kernel(c: np.ndarray) -> np.ndarray:
     return np.maximum(c, 0.0)
 
 
+def phong_exponent(alpha: float) -> float:
+    """The cos^n exponent of the Phong kernel of roughness α: α = √(2/(4n+2)), the inverse of
+    models/base.phong_roughness (a wi-space lobe is a Blinn lobe of exponent 4n)."""
+    return (2.0 / (alpha * alpha) - 2.0) / 4.0
+
+
 def specular_kernel(kernel: str, alpha: float):
-    """Karis's prefilter weight as a function of c = r·l: D(h) max(0, c), cos θh = √((1+c)/2)."""
+    """Karis's prefilter weight as a function of c = r·l: D(h) max(0, c), cos θh = √((1+c)/2);
+    for the Phong kernel, cos^n(r, l) max(0, c)."""
+    if kernel == "phong":
+        exponent = phong_exponent(alpha) + 1.0
+        return lambda c: np.maximum(c, 0.0) ** exponent
     d = KERNEL_FUNCTIONS[kernel]
     return lambda c: d(np.sqrt(0.5 * (1.0 + c)), alpha) * np.maximum(c, 0.0)
 

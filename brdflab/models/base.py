@@ -28,8 +28,9 @@ class SplitSum:
     `kind`: "diffuse" (lit by the irradiance), "mirror" (the prefiltered map looked up
     around the mirror direction of wo) or "axis" (around the lobe's own axis `axis` ∘ wo,
     e.g. Lafortune's C ∘ wo, which is a retro-reflection when Cx, Cy > 0).
-    `roughness`: the α of the prefilter kernel `kernel` ("beckmann" or "ggx") whose width
-    matches the lobe's. `diffuse_share`: the part of the lobe's albedo that is lit by the
+    `roughness`: the α of the prefilter kernel `kernel` ("beckmann", "ggx", or "phong" for
+    lobes around a direction in wi-space) whose width matches the lobe's (diffuse lobes:
+    "cosine", the irradiance). `diffuse_share`: the part of the lobe's albedo that is lit by the
     irradiance instead (a lobe with a diffuse term of its own, Strauss)."""
 
     kind: str
@@ -213,7 +214,7 @@ class CosineSampled(LobeModel):
     split_sum_rule = "diffuse: irradiance × the lobe's directional albedo / π"
 
     def split_sum(self, params):
-        return SplitSum("diffuse")
+        return SplitSum("diffuse", kernel="cosine")
 
     def _sample(self, wo, u, p):
         from brdflab.geometry.sampling import cosine_hemisphere

@@ -13,12 +13,12 @@ _C = dict(lower=-5.0, upper=5.0)
 class _Lafortune(LobeModel):
     sampling = "cos^n lobe around the lobe axis C∘wo"
     reference = "Lafortune et al. 1997; BRDFLab; Ngan et al. 2005"
-    split_sum_rule = ("axis C∘wo (mirror when Cx, Cy < 0, retro when > 0), "
-                      "Beckmann α = √(2/(4n+2)) (a wi-space lobe: the Blinn exponent 4n)")
+    split_sum_rule = ("axis C∘wo (mirror when Cx, Cy < 0, retro when > 0), its own cos^n kernel (phong), "
+                      "indexed by α = √(2/(4n+2))")
 
     def split_sum(self, params):
         axis = tuple(float(c) for c in self._coefficients(params))
-        return SplitSum("axis", phong_roughness(params["Exponent"]), axis=axis)
+        return SplitSum("axis", phong_roughness(params["Exponent"]), kernel="phong", axis=axis)
 
     def _coefficients(self, p) -> tuple:
         raise NotImplementedError
