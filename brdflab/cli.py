@@ -50,6 +50,7 @@ def cmd_models(args: argparse.Namespace) -> int:
         ps = ", ".join(f"{p['name']}={p['default']:g} [{p['lower']:g}, {p['upper']:g}]" for p in m["parameters"])
         flags = ("isotropic" if m["isotropic"] else "anisotropic") + (", samplable" if m["samplable"] else "")
         lines.append(f"{m['id']:<24} {flags:<24} {ps}")
+        lines.append(f"{'':<24} prefiltered: {m['prefiltered']['rule']}")
     _emit(args, {"models": models}, "\n".join(lines))
     return 0
 
@@ -245,7 +246,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise BRDFLabError(str(e), args.material) from None
     if args.view != "reference":
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
-    if args.mode in ("fis", "sh"):
+    if args.mode in ("fis", "sh", "prefiltered"):
         env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
         renderer.set_environment(load_environment(env_path, args.env_layout))
     if args.mode == "sh":
@@ -490,8 +491,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _add(sub, "render", "offscreen render of a material")
     p.add_argument("material", type=material_path, help="XML material, measured data file, or example:NAME")
-    p.add_argument("--mode", choices=["point", "fis", "sh"], default="point",
-                   help="point light, filtered importance sampling of --env, or spherical harmonics")
+    p.add_argument("--mode", choices=["point", "fis", "sh", "prefiltered"], default="point",
+                   help="point light, filtered importance sampling of --env, spherical harmonics, or "
+                        "prefiltered lighting (the split sum)")
     p.add_argument("--view", choices=["reference", "orbit"], default="orbit",
                    help="reference: the benchmarks' orthographic unit sphere; orbit: a perspective view of --mesh")
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")

@@ -2,6 +2,7 @@
 //   MODE_POINT: directional light, f(wi, wo) · max(0, n·L)
 //   MODE_FIS:   filtered importance sampling of an HDR lat-long map (Colbert & Křivánek)
 //   MODE_SH:    spherical harmonics (shaders/sh.glsl), unclamped so negative ringing is seen
+//   MODE_PREFILTERED: the split sum (shaders/prefiltered.glsl)
 // Outputs the sum over this batch's samples (FIS) so batches add up in a float target.
 #ifdef GEOMETRY_REFERENCE
 in vec2 v_ndc;
@@ -76,6 +77,9 @@ void main() {
 #endif
 #ifdef MODE_SH
     color = sh_shade(mat3(t, b, n), wo);  // mat3 columns = the rows of world → local
+#endif
+#ifdef MODE_PREFILTERED
+    color = prefiltered_shade(to_world, n, wo);
 #endif
     frag = vec4(color, 1.0);
 }

@@ -170,6 +170,7 @@ class ObjectView(_GLView):
         super().__init__(parent)
         self._pool = None  # a worker process for SH tables (NumPy in a thread held the GIL for seconds)
         self._table_job = None
+        self._stack_job = None  # the prefiltered mode's stack, built in the same worker
         self.settings = RenderSettings(reference_view=False, samples=256)
         self.exposure = 0.0
         self.gamma = 0.0  # 0: sRGB
@@ -208,7 +209,7 @@ class ObjectView(_GLView):
 
         self._timer.stop()
         stop_pool(self._pool)
-        self._pool, self._table_job = None, None
+        self._pool, self._table_job, self._stack_job = None, None, None
 
     def hideEvent(self, event) -> None:
         """A hidden (or closing) view refines nothing: its context may be on its way out."""
@@ -294,6 +295,27 @@ class ObjectView(_GLView):
         QTimer.singleShot(100, self._refine)
         return True
 
+    def _stack_pending(self) -> bool:
+        """Prefiltered mode: build the map's stack in the worker process (seconds of NumPy);
+        True while it is not ready."""
+        from brdflab.gui.background import worker_pool
+        from brdflab.lighting.prefilter import build_stack, map_key, remember_stack
+
+        r = self.renderer
+        if self._stack_job is not None and self._stack_job.done():
+            job, self._stack_job = self._stack_job, None
+            self.busy.emit("")
+            remember_stack(job.result())  # a failed build raises here, where it is reported
+        if self.settings.mode != "prefiltered" or r.environment is None or r.prefiltered_ready():
+            return False
+        if self._stack_job is None:
+            if self._pool is None:
+                self._pool = worker_pool()
+            self._stack_job = self._pool.submit(build_stack, r.environment, map_key(r.environment))
+            self.busy.emit("prefiltering the environment map…")
+        QTimer.singleShot(100, self._refine)
+        return True
+
     def _refine(self) -> None:
         """Render more samples, outside paint events (Qt's paint-time GL state is not
         moderngl's), then ask for a repaint that only displays the image."""
@@ -303,7 +325,7 @@ class ObjectView(_GLView):
         w, h = self.pixel_size()
         self.makeCurrent()
         try:
-            if self._table_pending():
+            if self._table_pending() or self._stack_pending():
                 return
             if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
                 self._release(self._progressive, self._progressive_b)
@@ -350,7 +372,7 @@ class ObjectView(_GLView):
             if not self.blank and not self._timer.isActive():
                 self._timer.start()
             return
-        lit_by_map = image.settings.mode in ("fis", "sh")
+        lit_by_map = image.settings.mode in ("fis", "sh", "prefiltered")
         other = self._progressive_b if self.comparing and image is self._progressive and self._progressive_b is not None else None
         self.display.draw(image, self.exposure, self.reinhard, gamma=self.gamma,
                           environment=self.renderer if lit_by_map else None, other=other,

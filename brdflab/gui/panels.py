@@ -340,7 +340,7 @@ class ObjectControls(QWidget):
     def __init__(self) -> None:
         super().__init__()
         self.mode = QComboBox()
-        self.mode.addItems(["fis", "point", "sh"])
+        self.mode.addItems(["fis", "point", "sh", "prefiltered"])
         self.sh_order = QSpinBox(minimum=1, maximum=10, value=5)
         self.sh_shadows = QCheckBox("SH self-shadowing")
         self.sh_variant = QComboBox()

@@ -170,6 +170,20 @@ class AnalyticMaterial(SourceLinked):
     def isotropic(self) -> bool:
         return all(l.model.isotropic for l in self.lobes)
 
+    def rgb_scales(self) -> np.ndarray:
+        """(lobes, 3): what each lobe adds to red, green and blue (Fixed lobes scale their
+        own channel; one-channel materials are grey): the renderers' colours of the lobes."""
+        scales = np.zeros((len(self.lobes), 3))
+        for k, lobe in enumerate(self.lobes):
+            if self.combination == "Linear":
+                s = np.asarray(lobe.scale, float)
+                scales[k] = s[:3] if s.size >= 3 else np.repeat(s[0], 3)
+            elif self.n_channels == 1:
+                scales[k] = lobe.scale[0]
+            elif lobe.channel < 3:
+                scales[k, lobe.channel] = lobe.scale[0]
+        return scales
+
     def evaluate(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """BRDF values of every channel, shape (N, n_channels), in 1/sr."""
         wi = np.asarray(wi, float)

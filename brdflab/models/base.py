@@ -18,6 +18,38 @@ from brdflab.geometry.vec import upper_hemisphere
 
 ParamValues = Mapping[str, "float | np.ndarray"]
 
+SPLIT_SUM_KINDS = ("diffuse", "mirror", "axis")
+
+
+@dataclass(frozen=True)
+class SplitSum:
+    """How one lobe is drawn by prefiltered environment lighting (the split sum).
+
+    `kind`: "diffuse" (lit by the irradiance), "mirror" (the prefiltered map looked up
+    around the mirror direction of wo) or "axis" (around the lobe's own axis `axis` ∘ wo,
+    e.g. Lafortune's C ∘ wo, which is a retro-reflection when Cx, Cy > 0).
+    `roughness`: the α of the prefilter kernel `kernel` ("beckmann", "ggx", or "phong" for
+    lobes around a direction in wi-space) whose width matches the lobe's (diffuse lobes:
+    "cosine", the irradiance). `diffuse_share`: the part of the lobe's albedo that is lit by the
+    irradiance instead (a lobe with a diffuse term of its own, Strauss)."""
+
+    kind: str
+    roughness: float = 1.0
+    kernel: str = "beckmann"
+    axis: tuple[float, float, float] = (-1.0, -1.0, 1.0)
+    diffuse_share: float = 0.0
+
+
+def phong_roughness(n) -> float:
+    """Beckmann α of a cos^n lobe around a direction in wi-space (Phong, Lafortune): with
+    n = v = r the half vector turns half as far as wi, so n ↔ the Blinn exponent 4n."""
+    return blinn_roughness(4.0 * float(n))
+
+
+def blinn_roughness(n) -> float:
+    """Beckmann α of a Blinn–Phong cos^n θh lobe, α = √(2/(n+2)) (Walter et al. 2007)."""
+    return float(min(1.0, np.sqrt(2.0 / (max(float(n), 0.0) + 2.0))))
+
 
 @dataclass(frozen=True)
 class Parameter:
@@ -64,6 +96,8 @@ class LobeModel:
     starts: ClassVar[tuple[dict, ...]] = ({},)
     # parameters whose common scale does not change the lobe (searched as a direction)
     scale_invariant: ClassVar[tuple[str, ...]] = ()
+    # how `split_sum` maps the lobe to prefiltered lighting, in words (`brdflab models`)
+    split_sum_rule: ClassVar[str] = ""
 
     # --- declared-once metadata -------------------------------------------------
     @property
@@ -109,7 +143,13 @@ class LobeModel:
             "samplable": self.samplable,
             "sampling": self.sampling,
             "parameters": [p.as_dict() for p in self.parameters],
+            "prefiltered": {**self.split_sum(self.defaults()).__dict__, "rule": self.split_sum_rule},
         }
+
+    def split_sum(self, params: Mapping[str, float]) -> SplitSum:
+        """The lobe's kind and equivalent roughness for prefiltered lighting (its one
+        definition: the renderer, `brdflab models` and the study all read it)."""
+        raise NotImplementedError(f"{self.name} does not say how it maps to prefiltered lighting")
 
     # --- evaluation -------------------------------------------------------------
     def evaluate(self, wi: np.ndarray, wo: np.ndarray, params: ParamValues | None = None) -> np.ndarray:
@@ -167,9 +207,14 @@ def normalised_phong_factor(n):
 
 
 class CosineSampled(LobeModel):
-    """Mixin for diffuse-like lobes: importance-sample the cosine factor alone."""
+    """Mixin for diffuse-like lobes: importance-sample the cosine factor alone; in
+    prefiltered lighting they are lit by the irradiance."""
 
     sampling = "cosine-weighted hemisphere"
+    split_sum_rule = "diffuse: irradiance × the lobe's directional albedo / π"
+
+    def split_sum(self, params):
+        return SplitSum("diffuse", kernel="cosine")
 
     def _sample(self, wo, u, p):
         from brdflab.geometry.sampling import cosine_hemisphere

@@ -2,7 +2,7 @@
 
 from brdflab.geometry.sampling import cosine_power_around, cosine_power_pdf, half_vector_pdf, reflect
 from brdflab.geometry.vec import half_vector
-from brdflab.models.base import LobeModel, Parameter, normalised_phong_factor
+from brdflab.models.base import LobeModel, Parameter, SplitSum, blinn_roughness, normalised_phong_factor
 from brdflab.models.registry import register
 import numpy as np
 
@@ -17,6 +17,10 @@ class BlinnPhong(LobeModel):
     reference = "Blinn 1977; BRDFLab; Schwenk 2011 §3.3.1"
     starts = tuple({"Exponent": e} for e in (10.0, 100.0, 1000.0, 10000.0))
     sampling = "half vector from (n+1)/(2π) cos^n θh, reflected"
+    split_sum_rule = "mirror, Beckmann α = √(2/(n+2))"
+
+    def split_sum(self, params):
+        return SplitSum("mirror", blinn_roughness(params["Exponent"]))
 
     def _value(self, wi, wo, p):
         h = half_vector(wi, wo)

@@ -4,7 +4,7 @@ import numpy as np
 
 from brdflab.geometry.sampling import beckmann_d, beckmann_half_vector, ggx_d, ggx_half_vector, half_vector_pdf, reflect
 from brdflab.geometry.vec import dot, half_vector, schlick
-from brdflab.models.base import LobeModel, Parameter
+from brdflab.models.base import LobeModel, Parameter, SplitSum
 from brdflab.models.registry import register
 
 _STARTS = tuple({"m": m, "F0": f} for m in (0.02, 0.08, 0.25, 0.5) for f in (0.05, 0.8))
@@ -22,6 +22,10 @@ class CookTorrance(LobeModel):
     reference = "Cook & Torrance 1982; BRDFLab; Schwenk 2011 §3.5"
     starts = _STARTS
     sampling = "half vector from D(h) cos θh (Beckmann)"
+    split_sum_rule = "mirror, Beckmann α = m"
+
+    def split_sum(self, params):
+        return SplitSum("mirror", float(min(1.0, params["m"])))
 
     def _value(self, wi, wo, p):
         h = half_vector(wi, wo)
@@ -52,6 +56,10 @@ class CookTorranceGGX(LobeModel):
     reference = "Walter et al. 2007 (microfacet models for refraction)"
     starts = _STARTS
     sampling = "half vector from D(h) cos θh (GGX)"
+    split_sum_rule = "mirror, GGX α = m (Karis 2013 exactly)"
+
+    def split_sum(self, params):
+        return SplitSum("mirror", float(min(1.0, params["m"])), kernel="ggx")
 
     def _value(self, wi, wo, p):
         h = half_vector(wi, wo)

@@ -11,7 +11,7 @@ from brdflab.geometry.sampling import (
     reflect,
 )
 from brdflab.geometry.vec import dot, half_vector, schlick
-from brdflab.models.base import CosineSampled, LobeModel, Parameter
+from brdflab.models.base import CosineSampled, LobeModel, Parameter, SplitSum
 from brdflab.models.registry import register
 
 
@@ -31,6 +31,10 @@ class Kurt(LobeModel):
     reference = "Kurt, Szirmay-Kalos & Křivánek 2010, eqs. 4–5, 10, 16–20"
     starts = tuple({"mx": m, "my": m, "F0": f, "alpha": a} for m in (0.03, 0.1, 0.3) for f, a in ((0.1, 0.2), (0.6, 0.8)))
     sampling = "half vector by eqs. 16–19, pdf eq. 20"
+    split_sum_rule = "mirror, Beckmann α = √(mx·my) (the geometric mean: the same lobe solid angle)"
+
+    def split_sum(self, params):
+        return SplitSum("mirror", float(min(1.0, np.sqrt(params["mx"] * params["my"]))))
 
     def _value(self, wi, wo, p):
         h = half_vector(wi, wo)

@@ -4,7 +4,7 @@ import numpy as np
 
 from brdflab.geometry.sampling import cosine_power_around, cosine_power_pdf, stable_axis
 from brdflab.geometry.vec import TINY, dot
-from brdflab.models.base import LobeModel, Parameter, normalised_phong_factor
+from brdflab.models.base import LobeModel, Parameter, SplitSum, normalised_phong_factor, phong_roughness
 from brdflab.models.registry import register
 
 _C = dict(lower=-5.0, upper=5.0)
@@ -13,6 +13,12 @@ _C = dict(lower=-5.0, upper=5.0)
 class _Lafortune(LobeModel):
     sampling = "cos^n lobe around the lobe axis C∘wo"
     reference = "Lafortune et al. 1997; BRDFLab; Ngan et al. 2005"
+    split_sum_rule = ("axis C∘wo (mirror when Cx, Cy < 0, retro when > 0), its own cos^n kernel (phong), "
+                      "indexed by α = √(2/(4n+2))")
+
+    def split_sum(self, params):
+        axis = tuple(float(c) for c in self._coefficients(params))
+        return SplitSum("axis", phong_roughness(params["Exponent"]), kernel="phong", axis=axis)
 
     def _coefficients(self, p) -> tuple:
         raise NotImplementedError

@@ -9,7 +9,7 @@ import numpy as np
 
 from brdflab.geometry.sampling import cosine_power_around, cosine_power_pdf, half_vector_pdf, reflect
 from brdflab.geometry.vec import dot, half_vector, schlick
-from brdflab.models.base import LobeModel, Parameter
+from brdflab.models.base import LobeModel, Parameter, SplitSum, blinn_roughness
 from brdflab.models.registry import register
 
 _Z = np.array([0.0, 0.0, 1.0])
@@ -31,6 +31,10 @@ class Schwenk(LobeModel):
     summary = "s²/(wo·h) F(wo·h, 1−m+m·tint) cos θh^(2/(1.00392−s)) (Schwenk 2011 eqs. 50–52)."
     reference = "Schwenk 2011 §4.2"
     sampling = "half vector from (e+1)/(2π) cos^e θh, reflected"
+    split_sum_rule = "mirror, Beckmann α = √(2/(e+2)), e = 2/(1.00392 − s)"
+
+    def split_sum(self, params):
+        return SplitSum("mirror", blinn_roughness(schwenk_exponent(params["smoothness"])))
 
     def _value(self, wi, wo, p):
         s = p["smoothness"]

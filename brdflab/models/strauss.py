@@ -3,7 +3,7 @@
 import numpy as np
 
 from brdflab.geometry.vec import TINY, dot, reflect_about_normal
-from brdflab.models.base import LobeModel, Parameter
+from brdflab.models.base import LobeModel, Parameter, SplitSum, phong_roughness
 from brdflab.models.registry import register
 
 KF, KG, KJ = 1.12, 1.01, 0.1
@@ -40,6 +40,17 @@ class Strauss(LobeModel):
     summary = ("rd d C/π + rs Cs / cosθi with rd = (1−s³)(1−t), d = 1−ms, rs = rj cos^(3/(1−s)) α "
                "and Strauss's Fresnel/shadow approximations.")
     reference = "Strauss 1990; Schwenk 2011 §3.9 (diffuse part divided by π so C is an albedo)"
+    split_sum_rule = ("mirror, the cos^e kernel (phong) indexed by α = √(2/(4e+2)), e = 3/(1−s); its diffuse term's share of the "
+                      "normal-view albedo, rd·d·C against rj·Cs·2π/(e+1), is lit by the irradiance")
+
+    def split_sum(self, params):
+        s, m, t, c = params["smoothness"], params["metalness"], params["transparency"], params["color"]
+        e = 3.0 / (1.0 - s)
+        rd = (1.0 - s**3) * (1.0 - t)
+        diffuse = rd * (1.0 - m * s) * c
+        specular = min(1.0, (1.0 - t) - rd) * (1.0 + m * (c - 1.0)) * 2.0 * np.pi / (e + 1.0)
+        share = diffuse / (diffuse + specular) if diffuse + specular > 0.0 else 0.0
+        return SplitSum("mirror", phong_roughness(e), kernel="phong", diffuse_share=float(share))
 
     def _value(self, wi, wo, p):
         s, m, t, c = p["smoothness"], p["metalness"], p["transparency"], p["color"]

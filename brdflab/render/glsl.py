@@ -79,17 +79,10 @@ def lobe_uniforms(material: AnalyticMaterial, shares: np.ndarray | None = None) 
     channel; one-channel materials are grey) and sampling shares."""
     n = len(material.lobes)
     params = np.zeros((n, MAX_PARAMS), np.float32)
-    scales = np.zeros((n, 3), np.float32)
     for k, lobe in enumerate(material.lobes):
         values = [lobe.params[p] for p in lobe.model.parameter_names]
         params[k, : len(values)] = values
-        if material.combination == "Linear":
-            s = np.asarray(lobe.scale, float)
-            scales[k] = s[:3] if s.size >= 3 else np.repeat(s[0], 3)
-        elif material.n_channels == 1:
-            scales[k] = lobe.scale[0]
-        elif lobe.channel < 3:
-            scales[k, lobe.channel] = lobe.scale[0]
+    scales = material.rgb_scales().astype(np.float32)
     if shares is None:
         shares = np.full(n, 1.0 / n)
     return {"u_lobe_p": params.ravel(), "u_lobe_scale": scales.ravel(), "u_lobe_share": np.asarray(shares, np.float32)}

@@ -19,10 +19,11 @@ from brdflab.sources.measured import MeasuredTable, tabulate
 from brdflab.sources.proxy import proxy_lobes
 from brdflab.io.mesh import Mesh
 from brdflab.render.camera import OrbitCamera, gl_matrix
+from brdflab.render.prefiltered import PrefilteredLighting
 from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 from brdflab.lighting.sampling_sets import lobe_shares, sample_set
 
-MODES = ("point", "fis", "sh")
+MODES = ("point", "fis", "sh", "prefiltered")
 BATCH = 32  # samples per draw: keeps each draw short on software rasterisers
 VERTEX_ROW = 64  # vertices per row of the per-vertex SH lighting texture
 SAMPLE_ROW = 4096  # samples per row of the sample texture: far below any GL_MAX_TEXTURE_SIZE (≥ 4096 in GL 3.3)
@@ -74,6 +75,7 @@ class ObjectRenderer:
         self.environment: EnvironmentMap | None = None
         self._sh_state: tuple | None = None  # (order, table texture, rx texture, half, light)
         self.clamped_pixels = 0
+        self._prefiltered = PrefilteredLighting(ctx)
         self._empty_vao = ctx.vertex_array(self._program(("Lambertian",), "point", True), [])
 
     def adopt(self, old: "ObjectRenderer") -> None:
@@ -150,6 +152,7 @@ class ObjectRenderer:
         self.env_size = (env.width, env.height)
         self.environment = env
         self._release_sh()
+        self._prefiltered.release_stack()
 
     # --- spherical harmonics ------------------------------------------------------------------
     def _release_sh(self) -> None:
@@ -205,6 +208,10 @@ class ObjectRenderer:
         from brdflab.lighting.sh_tables import is_cached
 
         return self._sh_state is not None or is_cached(self.source if self.source is not None else self.material, self.sh_order)
+
+    def prefiltered_ready(self) -> bool:
+        """Whether the prefiltered mode can draw without building the map's stack first."""
+        return self.environment is None or self._prefiltered.ready(self.environment)
 
     def _vertex_frames(self) -> tuple[np.ndarray, np.ndarray]:
         """World → local rotation of every vertex (rows t, b, n, as the fragment shader
@@ -306,6 +313,8 @@ class ObjectRenderer:
                     elif self.sh_variant == "fixed-view":
                         defines += "#define SH_FIXED_VIEW\n"
                 material += shader_source("sh.glsl")
+            if mode == "prefiltered":
+                material += shader_source("prefiltered.glsl")
             self._programs[key] = self.ctx.program(
                 vertex_shader=GLSL_VERSION + defines + shader_source("object_vertex.glsl"),
                 fragment_shader=GLSL_VERSION + defines + material + shader_source("object_fragment.glsl"),
@@ -330,7 +339,7 @@ class ObjectRenderer:
         if self.material is None:
             raise BRDFLabError("no material to render")
         if settings.mode not in MODES:
-            raise BRDFLabError(f"unknown lighting mode {settings.mode!r} (point, fis or sh)")
+            raise BRDFLabError(f"unknown lighting mode {settings.mode!r} ({', '.join(MODES)})")
         reference = settings.reference_view or self.mesh is None
         models = models_of(self.material)
         prog = self._program(models, settings.mode, reference, self.measured)
@@ -367,6 +376,8 @@ class ObjectRenderer:
             if self._shadowed(settings.mode, reference):
                 self._vertex_light_texture(settings).use(5)
                 _set(prog, "u_sh_vertex_light", 5)
+        if settings.mode == "prefiltered":
+            self._prefiltered.bind(prog, self.environment, self.material, settings.env_rotation)
         if reference:
             self._empty_vao_for(prog).render(moderngl.TRIANGLES, vertices=3)
         else:
@@ -470,7 +481,7 @@ class Progressive:
             self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.viewport = (0, 0, s.width, s.height)
         reference = s.reference_view or r.mesh is None
-        if s.mode in ("point", "sh"):  # deterministic: one depth-tested draw
+        if s.mode in ("point", "sh", "prefiltered"):  # deterministic: one depth-tested draw
             if self.steps == 0:
                 _set_state(ctx, depth=not reference, blend=False)
                 ctx.depth_func = "<"

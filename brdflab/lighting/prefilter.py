@@ -1,0 +1,215 @@
+"""Prefiltered environment lighting (the split sum of Karis 2013, as in UE4 and Filament).
+
+The first factor: the map convolved, once per roughness, into a stack of lat-long layers:
+layer 0 holds the irradiance E(n) = ∫ L(ω) max(0, n·ω) dω (the exact cosine convolution, so a
+Lambertian lobe needs no SH truncation), then, for each kernel (Beckmann, GGX, Phong), one layer
+per α in ALPHAS: L̄(r) = ∫ L(l) D(h) max(0, r·l) dl / ∫ D(h) max(0, r·l) dl with h = normalize(r + l),
+the n = v = r assumption (the lobe keeps the shape it has at normal view), Karis's r·l weight;
+the Phong kernel is the wi-space lobe of Phong and Lafortune itself, cos^n(r, l) max(0, r·l).
+
+Each layer is the same quadrature over the map's texels as `reference_view.environment_image`
+(texel radiance × exact solid angle, at texel centres), computed in O(H² W log W): the
+kernel depends on longitude only through the difference of longitudes, so each output row
+is a sum over input rows of circular correlations along longitude, done with real FFTs.
+
+Stacks are cached in memory, keyed by the map's pixels (a hash of its data and shape) and
+the stack's resolution, so a renderer, the GUI and the study build each map's stack once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from brdflab.lighting.envmap import EnvironmentMap
+
+# α of each layer of a kernel: 0 is the map itself (a mirror); ratios of ~1.4 between layers
+ALPHAS = (0.0, 0.02, 0.03, 0.045, 0.065, 0.09, 0.13, 0.18, 0.25, 0.35, 0.5, 0.7, 1.0)
+KERNELS = ("beckmann", "ggx", "phong")
+MAX_WIDTH = 256  # stack resolution: 256 × 128 texels (~1.4°) at most
+ROWS_PER_CHUNK = 16  # output rows convolved at once (bounds the kernel's memory)
+CACHE_SIZE = 4
+
+
+def beckmann_kernel(cos_h: np.ndarray, alpha: float) -> np.ndarray:
+    """Beckmann D(h) = exp(−tan²θh/α²) / (π α² cos⁴θh) (the normalisation cancels later)."""
+    c2 = np.maximum(cos_h * cos_h, 1e-12)
+    return np.exp(-(1.0 - c2) / (c2 * alpha * alpha)) / (np.pi * alpha * alpha * c2 * c2)
+
+
+def ggx_kernel(cos_h: np.ndarray, alpha: float) -> np.ndarray:
+    """GGX (Trowbridge–Reitz) D(h) = α² / (π (cos²θh (α² − 1) + 1)²)."""
+    a2 = alpha * alpha
+    d = cos_h * cos_h * (a2 - 1.0) + 1.0
+    return a2 / (np.pi * d * d)
+
+
+KERNEL_FUNCTIONS = {"beckmann": beckmann_kernel, "ggx": ggx_kernel}
+
+
+@dataclass(frozen=True)
+class PrefilteredStack:
+    """Layers (L, H, W, 3) float32, lat-long, row 0 at the top: layer 0 the irradiance,
+    then len(ALPHAS) layers per kernel in KERNELS order (the first of each: the map)."""
+
+    layers: np.ndarray
+    key: str
+
+    @property
+    def width(self) -> int:
+        return self.layers.shape[2]
+
+    @property
+    def height(self) -> int:
+        return self.layers.shape[1]
+
+    def irradiance(self) -> np.ndarray:
+        return self.layers[0]
+
+    def layer(self, kernel: str, alpha_index: int) -> np.ndarray:
+        return self.layers[layer_of(kernel, alpha_index)]
+
+
+def layer_of(kernel: str, alpha_index: int) -> int:
+    """Index in the stack of `kernel`'s layer for ALPHAS[alpha_index]."""
+    return 1 + KERNELS.index(kernel) * len(ALPHAS) + alpha_index
+
+
+def layer_blend(kernel: str, alpha: float) -> tuple[int, int, float]:
+    """(lower layer, upper layer, weight of the upper) for a lobe of roughness α: linear in
+    log α between ALPHAS (linear in α below the first non-zero level), clamped at α = 1."""
+    a = float(np.clip(alpha, 0.0, ALPHAS[-1]))
+    hi = int(np.searchsorted(ALPHAS, a, side="left"))
+    if hi == 0:
+        return layer_of(kernel, 0), layer_of(kernel, 0), 0.0
+    lo = hi - 1
+    a0, a1 = ALPHAS[lo], ALPHAS[hi]
+    t = (a - a0) / (a1 - a0) if a0 == 0.0 else np.log(a / a0) / np.log(a1 / a0)
+    return layer_of(kernel, lo), layer_of(kernel, hi), float(t)
+
+
+def reduced(env: EnvironmentMap, max_width: int = MAX_WIDTH) -> EnvironmentMap:
+    """The map area-averaged (solid-angle weighted) to at most max_width texels across,
+    keeping its aspect; texels of any size ratio fall into the output texel their centre is in."""
+    h, w = env.height, env.width
+    if w <= max_width:
+        return env
+    ow = max_width
+    oh = max(2, int(round(h * ow / w)))
+    rows = (np.arange(h) * oh) // h
+    cols = (np.arange(w) * ow) // w
+    _, solid = env.texel_directions()
+    weight = np.broadcast_to(solid, (h, w))
+    index = (rows[:, None] * ow + cols[None, :]).ravel()
+    area = np.bincount(index, weight.ravel(), oh * ow)
+    data = np.stack([np.bincount(index, (env.data[..., c] * weight).ravel(), oh * ow) for c in range(3)], -1)
+    return EnvironmentMap((data / area[:, None]).reshape(oh, ow, 3).astype(np.float32), env.name, env.path)
+
+
+def convolve(env: EnvironmentMap, kernels: list) -> list[np.ndarray]:
+    """For each (K, normalise) in `kernels`: Σ over texels t of L(t) Ω(t) K(d·t) at every
+    texel centre d of the same grid, K a function of the cosine between the directions,
+    divided by Σ Ω(t) K(d·t) if `normalise`. Exact quadrature, by FFT along longitude; the
+    cosines are computed once for all kernels."""
+    h, w = env.height, env.width
+    theta = (np.arange(h) + 0.5) / h * np.pi
+    _, solid = env.texel_directions()
+    radiance = np.fft.rfft(env.data.astype(np.float32) * solid[:, :, None].astype(np.float32), axis=1)  # (H_in, F, 3)
+    cos_dphi = np.cos(2.0 * np.pi * np.arange(w) / w)
+    out = [np.empty((h, w, 3), np.float32) for _ in kernels]
+    for begin in range(0, h, ROWS_PER_CHUNK):
+        rows = slice(begin, min(h, begin + ROWS_PER_CHUNK))
+        t_out = theta[rows][:, None, None]
+        c = (np.cos(t_out) * np.cos(theta)[None, :, None]
+             + np.sin(t_out) * np.sin(theta)[None, :, None] * cos_dphi[None, None, :])  # (o, i, Δ)
+        c = np.clip(c, -1.0, 1.0).astype(np.float32)
+        for (kernel, normalise), result in zip(kernels, out):
+            k = kernel(c)
+            spectrum = np.fft.rfft(k, axis=2).real  # K is even in Δ: its spectrum is real
+            result[rows] = np.fft.irfft(np.einsum("oif,ifc->ofc", spectrum, radiance), n=w, axis=1)
+            if normalise:
+                result[rows] /= np.maximum((k.sum(axis=2, dtype=float) * solid[None, :, 0]).sum(axis=1), 1e-300)[:, None, None]
+    return out
+
+
+def cosine_kernel(c: np.ndarray) -> np.ndarray:
+    """max(0, c): the irradiance's weight."""
+    return np.maximum(c, 0.0)
+
+
+def phong_exponent(alpha: float) -> float:
+    """The cos^n exponent of the Phong kernel of roughness α: α = √(2/(4n+2)), the inverse of
+    models/base.phong_roughness (a wi-space lobe is a Blinn lobe of exponent 4n)."""
+    return (2.0 / (alpha * alpha) - 2.0) / 4.0
+
+
+def specular_kernel(kernel: str, alpha: float):
+    """Karis's prefilter weight as a function of c = r·l: D(h) max(0, c), cos θh = √((1+c)/2);
+    for the Phong kernel, cos^n(r, l) max(0, c)."""
+    if kernel == "phong":
+        exponent = phong_exponent(alpha) + 1.0
+        return lambda c: np.maximum(c, 0.0) ** exponent
+    d = KERNEL_FUNCTIONS[kernel]
+    return lambda c: d(np.sqrt(0.5 * (1.0 + c)), alpha) * np.maximum(c, 0.0)
+
+
+def build_stack(env: EnvironmentMap, key: str = "") -> PrefilteredStack:
+    """Every layer of a map's stack (see the module docstring)."""
+    small = reduced(env)
+    kernels = [(cosine_kernel, False)] + [(specular_kernel(k, a), True) for k in KERNELS for a in ALPHAS[1:]]
+    convolved = convolve(small, kernels)
+    layers = convolved[:1]
+    per_kernel = len(ALPHAS) - 1
+    for i, _ in enumerate(KERNELS):
+        layers += [small.data.astype(np.float32)] + convolved[1 + i * per_kernel:1 + (i + 1) * per_kernel]
+    stack = np.maximum(np.stack(layers), 0.0)  # FFT round-off can dip below 0
+    return PrefilteredStack(stack, key)
+
+
+_CACHE: OrderedDict[str, PrefilteredStack] = OrderedDict()
+_LOCK = threading.Lock()
+_BUILDS = [0]
+
+
+def map_key(env: EnvironmentMap) -> str:
+    """What identifies a map's stack: its pixels, shape and the stack's resolution."""
+    digest = hashlib.blake2b(np.ascontiguousarray(env.data, np.float32).tobytes(), digest_size=16)
+    digest.update(repr((env.data.shape, MAX_WIDTH, ALPHAS, KERNELS)).encode())
+    return digest.hexdigest()
+
+
+def prefiltered_stack(env: EnvironmentMap) -> PrefilteredStack:
+    """The map's stack, built once per map (in memory, the CACHE_SIZE most recent maps)."""
+    key = map_key(env)
+    with _LOCK:
+        if key in _CACHE:
+            _CACHE.move_to_end(key)
+            return _CACHE[key]
+    stack = build_stack(env, key)
+    remember_stack(stack)
+    return stack
+
+
+def is_cached(env: EnvironmentMap) -> bool:
+    with _LOCK:
+        return map_key(env) in _CACHE
+
+
+def remember_stack(stack: PrefilteredStack) -> None:
+    """Keep a stack built elsewhere (the GUI's worker process) as if built here."""
+    with _LOCK:
+        if stack.key not in _CACHE:
+            _BUILDS[0] += 1
+        _CACHE[stack.key] = stack
+        _CACHE.move_to_end(stack.key)
+        while len(_CACHE) > CACHE_SIZE:
+            _CACHE.popitem(last=False)
+
+
+def stack_builds() -> int:
+    """How many stacks this process has built (the cache's hits do not count)."""
+    return _BUILDS[0]

@@ -1,0 +1,100 @@
+"""GPU side of the prefiltered lighting mode: the map's stack as a texture array and the
+material's albedo table as a texture, uploaded when the map or the material changes.
+
+The stack itself is built (and cached per map) by brdflab/lighting/prefilter.py; the per-lobe
+split by brdflab/lighting/split_sum.py; the shading is shaders/prefiltered.glsl.
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from brdflab.errors import BRDFLabError
+from brdflab.lighting.envmap import EnvironmentMap
+from brdflab.material.analytic import AnalyticMaterial
+
+STACK_UNIT = 10  # texture units, clear of the other modes' (0–5)
+ALBEDO_UNIT = 11
+
+
+class PrefilteredLighting:
+    """The textures of one renderer's prefiltered mode (its context must be current)."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self._stack: tuple[EnvironmentMap, moderngl.TextureArray] | None = None
+        self._albedo: tuple[tuple, moderngl.Texture, dict] | None = None
+
+    def ready(self, env: EnvironmentMap) -> bool:
+        """Whether `env`'s stack is uploaded or cached (drawing it builds nothing)."""
+        from brdflab.lighting.prefilter import is_cached
+
+        return (self._stack is not None and self._stack[0] is env) or is_cached(env)
+
+    def _stack_texture(self, env: EnvironmentMap) -> moderngl.TextureArray:
+        from brdflab.lighting.prefilter import prefiltered_stack
+
+        if self._stack is None or self._stack[0] is not env:
+            self.release_stack()
+            stack = prefiltered_stack(env)
+            layers = np.ascontiguousarray(stack.layers, np.float32)
+            tex = self.ctx.texture_array((stack.width, stack.height, layers.shape[0]), 3, layers.tobytes(), dtype="f4")
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x, tex.repeat_y = True, False
+            self._stack = (env, tex)
+        return self._stack[1]
+
+    def _albedo_texture(self, material: AnalyticMaterial) -> tuple[moderngl.Texture, dict]:
+        from brdflab.lighting.split_sum import material_split
+
+        key = tuple((l.model.name, tuple(sorted(l.params.items()))) for l in material.lobes)
+        if self._albedo is None or self._albedo[0] != key:
+            self.release_albedo()
+            splits = material_split(material)
+            table = np.ascontiguousarray(np.stack([s.albedo for s in splits]), np.float32)
+            tex = self.ctx.texture((table.shape[1], table.shape[0]), 1, table.tobytes(), dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # interpolated in the shader
+            uniforms = {
+                "u_pref_layers": np.array([[*s.layers, s.diffuse_share] for s in splits], np.float32),
+                "u_pref_axis": np.array([[*s.axis, s.toward_axis] for s in splits], np.float32),
+                "u_pref_albedo_size": float(table.shape[1]),
+            }
+            self._albedo = (key, tex, uniforms)
+        return self._albedo[1], self._albedo[2]
+
+    def bind(self, program: moderngl.Program, env: EnvironmentMap | None, material: AnalyticMaterial,
+             rotation_degrees: float) -> None:
+        """Bind the textures and set the mode's uniforms on `program`."""
+        from brdflab.render.glsl import set_uniforms
+
+        if env is None:
+            raise BRDFLabError("no environment map for the prefiltered lighting mode")
+        self._stack_texture(env).use(STACK_UNIT)
+        albedo, uniforms = self._albedo_texture(material)
+        albedo.use(ALBEDO_UNIT)
+        values = {"u_pref_stack": STACK_UNIT, "u_pref_albedo": ALBEDO_UNIT,
+                  "u_pref_rotation": math.radians(rotation_degrees), **uniforms}
+        for name, value in values.items():
+            if name not in program:
+                continue
+            if isinstance(value, np.ndarray):
+                set_uniforms(program, {name: value})
+            else:
+                program[name].value = value
+
+    def release_stack(self) -> None:
+        if self._stack is not None:
+            self._stack[1].release()
+        self._stack = None
+
+    def release_albedo(self) -> None:
+        if self._albedo is not None:
+            self._albedo[1].release()
+        self._albedo = None
+
+    def release(self) -> None:
+        self.release_stack()
+        self.release_albedo()
