@@ -31,13 +31,13 @@ uniform float u_env_fraction;     // MIS: share of the samples drawn from the ma
 
 vec2 env_uv(vec3 d) { return env_uv(d, u_env_rotation); }
 
-// Radiance from world direction d (local elevation cos = wi_z), filtered over a sample's
-// solid angle omega_s (Colbert & Křivánek): the mip level whose rows span sqrt(omega_s)
-// of θ, no wider than the angle to the local horizon, so that light from below the
-// horizon never leaks in (docs/mis.md: the cause of FIS's bias at low counts).
-vec3 filtered_env(vec3 d, float omega_s, float wi_z) {
-    float rows_per_radian = u_env_size.y / PI;
-    float lod = min(log2(sqrt(omega_s) * rows_per_radian), log2(max(2.0 * asin(wi_z) * rows_per_radian, 1e-6)));
+// Radiance from world direction d filtered over a sample's solid angle omega_s (Colbert &
+// Křivánek): the mip level whose rows span sqrt(omega_s) of θ. Their 0.5 log2(Ωs/Ωp) + 1
+// (Ωp the texel's solid angle, ∝ sin θ) made a box twice the sample spacing, taller still
+// near the poles; a box that wide gathers light from beyond the local horizon, and
+// biased FIS at low counts (docs/mis.md).
+vec3 filtered_env(vec3 d, float omega_s) {
+    float lod = log2(sqrt(omega_s) * u_env_size.y / PI);
     return textureLod(u_env, env_uv(d), clamp(lod, 0.0, u_env_max_lod)).rgb;
 }
 
@@ -78,7 +78,7 @@ void main() {
         if (wi.z <= 0.0) continue;
         float pdf = material_pdf(wi, wo);
         if (!(pdf > 0.0)) continue;
-        vec3 radiance = filtered_env(to_world * wi, 1.0 / (u_set_size * pdf), wi.z);
+        vec3 radiance = filtered_env(to_world * wi, 1.0 / (u_set_size * pdf));
         color += material_eval(wi, wo) * wi.z * radiance / pdf;
     }
 #endif
