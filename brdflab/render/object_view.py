@@ -488,7 +488,9 @@ class Progressive:
     """An image that keeps improving while the view stays still: each `step` adds a fresh
     sample set (Cranley–Patterson rotated) to a float accumulation target."""
 
-    def __init__(self, renderer: ObjectRenderer, settings: RenderSettings) -> None:
+    def __init__(self, renderer: ObjectRenderer, settings: RenderSettings, seed: int | None = None) -> None:
+        """`seed`: rotate the first set too (from this seed), so that images with different
+        seeds are independent estimates (what measuring a method's bias needs)."""
         self.renderer = renderer
         self.settings = settings
         ctx = renderer.ctx
@@ -498,7 +500,8 @@ class Progressive:
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.samples = 0
         self.steps = 0
-        self._rng = np.random.default_rng(1)
+        self._rng = np.random.default_rng(1 if seed is None else seed)
+        self._rotate_first = seed is not None
 
     def step(self, samples: int) -> None:
         r, s = self.renderer, self.settings
@@ -518,7 +521,7 @@ class Progressive:
                 r.draw(s)
                 self.samples = 1
         else:
-            rotation = None if self.steps == 0 else self._rng.random(2)
+            rotation = self._rng.random(2) if self.steps or self._rotate_first else None
             tex = r.samples_texture(samples, rotation, s.mode)
             footprint = self.samples + samples  # filter for all samples so far: the bias vanishes
             if reference:
