@@ -24,15 +24,24 @@ def level_sizes(width: int, height: int) -> list[tuple[int, int]]:
 
 
 def solid_angle_mips(data: np.ndarray) -> list[np.ndarray]:
-    """Levels (h_k, w_k, C) float32 of an (H, W, C) map, level 0 the map itself."""
+    """Levels (h_k, w_k, C) float32 of an (H, W, C) map, level 0 the map itself. Each level
+    sums the energy (radiance × solid angle) of the one above when its blocks tile it
+    evenly (power-of-two maps: every level), else of level 0."""
     height, width = data.shape[:2]
     solid = row_solid_angles(height, width)
-    weighted = np.asarray(data, float) * solid[:, None, None]
-    levels = []
-    for w, h in level_sizes(width, height):
-        row_starts = (np.arange(h) * height) // h
-        col_starts = (np.arange(w) * width) // w
-        energy = np.add.reduceat(np.add.reduceat(weighted, row_starts, axis=0), col_starts, axis=1)
-        area = np.add.reduceat(solid, row_starts)[:, None] * np.diff(np.append(col_starts, width))[None, :]
-        levels.append((energy / area[:, :, None]).astype(np.float32))
+    top = (np.asarray(data, float) * solid[:, None, None], solid, np.ones(width))  # energy, row area, columns
+    levels, source = [np.asarray(data, np.float32)], top
+    for w, h in level_sizes(width, height)[1:]:
+        energy, row_area, columns = source
+        if energy.shape[0] % h or energy.shape[1] % w:
+            energy, row_area, columns = top
+            rows, cols = (np.arange(h) * height) // h, (np.arange(w) * width) // w
+            source = (np.add.reduceat(np.add.reduceat(energy, rows, axis=0), cols, axis=1),
+                      np.add.reduceat(row_area, rows), np.add.reduceat(columns, cols))
+        else:
+            fy, fx = energy.shape[0] // h, energy.shape[1] // w
+            source = (energy.reshape(h, fy, w, fx, -1).sum(axis=(1, 3)), row_area.reshape(h, fy).sum(axis=1),
+                      columns.reshape(w, fx).sum(axis=1))
+        area = source[1][:, None] * source[2][None, :]
+        levels.append((source[0] / area[:, :, None]).astype(np.float32))
     return levels
