@@ -246,7 +246,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise BRDFLabError(str(e), args.material) from None
     if args.view != "reference":
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
-    if args.mode in ("fis", "sh", "prefiltered"):
+    if args.mode in ("fis", "sh", "prefiltered", "mis"):
         env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
         renderer.set_environment(load_environment(env_path, args.env_layout))
     if args.mode == "sh":
@@ -491,9 +491,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _add(sub, "render", "offscreen render of a material")
     p.add_argument("material", type=material_path, help="XML material, measured data file, or example:NAME")
-    p.add_argument("--mode", choices=["point", "fis", "sh", "prefiltered"], default="point",
-                   help="point light, filtered importance sampling of --env, spherical harmonics, or "
-                        "prefiltered lighting (the split sum)")
+    p.add_argument("--mode", choices=["point", "fis", "sh", "prefiltered", "mis"], default="point",
+                   help="point light, filtered importance sampling of --env, spherical harmonics, "
+                        "prefiltered lighting (the split sum), or mis: the BRDF's and the map's importance "
+                        "sampling combined (half the samples each)")
     p.add_argument("--view", choices=["reference", "orbit"], default="orbit",
                    help="reference: the benchmarks' orthographic unit sphere; orbit: a perspective view of --mesh")
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")

@@ -1,9 +1,11 @@
 // Object view, fragment stage: shading frame, then one lighting mode.
 //   MODE_POINT: directional light, f(wi, wo) · max(0, n·L)
 //   MODE_FIS:   filtered importance sampling of an HDR lat-long map (Colbert & Křivánek)
+//   MODE_MIS:   FIS's BRDF samples plus samples drawn from the map's luminance
+//               (shaders/env_sampling.glsl), combined by the power heuristic
 //   MODE_SH:    spherical harmonics (shaders/sh.glsl), unclamped so negative ringing is seen
 //   MODE_PREFILTERED: the split sum (shaders/prefiltered.glsl)
-// Outputs the sum over this batch's samples (FIS) so batches add up in a float target.
+// Outputs the sum over this batch's samples (FIS, MIS) so batches add up in a float target.
 #ifdef GEOMETRY_REFERENCE
 in vec2 v_ndc;
 #else
@@ -26,8 +28,19 @@ uniform int u_sample_row;          // samples per texture row (GL caps a row's w
 uniform int u_sample_begin;
 uniform int u_sample_end;
 uniform float u_set_size;         // samples in the whole set (for the filter footprint)
+uniform float u_env_fraction;     // MIS: share of the samples drawn from the map (the rest: BRDF)
 
 vec2 env_uv(vec3 d) { return env_uv(d, u_env_rotation); }
+
+// Radiance from world direction d filtered over a sample's solid angle omega_s (Colbert &
+// Křivánek): the mip level whose rows span sqrt(omega_s) of θ. Their 0.5 log2(Ωs/Ωp) + 1
+// (Ωp the texel's solid angle, ∝ sin θ) made a box twice the sample spacing, taller still
+// near the poles; a box that wide gathers light from beyond the local horizon, and
+// biased FIS at low counts (docs/mis.md).
+vec3 filtered_env(vec3 d, float omega_s) {
+    float lod = log2(sqrt(omega_s) * u_env_size.y / PI);
+    return textureLod(u_env, env_uv(d), clamp(lod, 0.0, u_env_max_lod)).rgb;
+}
 
 void main() {
 #ifdef GEOMETRY_REFERENCE
@@ -60,19 +73,42 @@ void main() {
     color = material_eval(wi, wo) * max(0.0, dot(n, L)) * u_light_color;
 #endif
 #ifdef MODE_FIS
-    float texel = 2.0 * PI * PI / (u_env_size.x * u_env_size.y);  // solid angle per texel / sin θ
     for (int i = u_sample_begin; i < u_sample_end; i++) {
         vec4 s = texelFetch(u_samples, ivec2(i % u_sample_row, i / u_sample_row), 0);
         vec3 wi = material_sample(int(s.z), wo, s.xy);
         if (wi.z <= 0.0) continue;
         float pdf = material_pdf(wi, wo);
         if (!(pdf > 0.0)) continue;
-        vec3 d = to_world * wi;
-        float omega_s = 1.0 / (u_set_size * pdf);
-        float omega_p = texel * max(sqrt(max(0.0, 1.0 - d.y * d.y)), 1e-4);
-        float lod = clamp(0.5 * log2(omega_s / omega_p) + 1.0, 0.0, u_env_max_lod);
-        vec3 radiance = textureLod(u_env, env_uv(d), lod).rgb;
+        vec3 radiance = filtered_env(to_world * wi, 1.0 / (u_set_size * pdf));
         color += material_eval(wi, wo) * wi.z * radiance / pdf;
+    }
+#endif
+#ifdef MODE_MIS
+    // Veach's multi-sample estimator: a sample from strategy k adds w_k f L cos / (c_k p_k),
+    // c_k the strategy's share of the samples, w_k the power heuristic over c p. The map is
+    // read unfiltered, texel by texel (the function its density follows): filtering it over
+    // a footprint, as FIS does, blurred lamps beyond the texels the density draws and cost
+    // MIS its unbiasedness or its low variance (docs/mis.md).
+    for (int i = u_sample_begin; i < u_sample_end; i++) {
+        vec4 s = texelFetch(u_samples, ivec2(i % u_sample_row, i / u_sample_row), 0);
+        bool from_env = s.z < 0.0;
+        vec3 wi, d;
+        if (from_env) {
+            d = env_sample(s.xy, u_env_rotation);
+            wi = vec3(dot(d, t), dot(d, b), dot(d, n));
+        } else {
+            wi = material_sample(int(s.z), wo, s.xy);
+            d = to_world * wi;
+        }
+        if (wi.z <= 0.0) continue;
+        float p_env = u_env_fraction * env_density(d, u_env_rotation);
+        float p_brdf = (1.0 - u_env_fraction) * material_pdf(wi, wo);
+        float p_own = from_env ? p_env : p_brdf;
+        if (!(p_own > 0.0)) continue;
+        float ratio = (from_env ? p_brdf : p_env) / p_own;
+        float weight = 1.0 / (1.0 + ratio * ratio);  // p_own² / (p_env² + p_brdf²), overflow-free
+        vec3 radiance = texelFetch(u_env, env_texel(d, u_env_rotation), 0).rgb;
+        color += material_eval(wi, wo) * wi.z * radiance * (weight / p_own);
     }
 #endif
 #ifdef MODE_SH

@@ -128,7 +128,7 @@ def test_switch_lighting_modes(window, qtbot):
 
     window.object_controls.sh_order.setValue(3)
     view = window.object_view
-    for mode in ("point", "fis", "sh"):
+    for mode in ("point", "fis", "sh", "mis"):
         window.object_controls.mode.setCurrentText(mode)
         assert view.settings.mode == mode
         qtbot.waitUntil(lambda: view.samples_done >= 1, timeout=60000)

@@ -12,7 +12,7 @@ from PySide6.QtOpenGLWidgets import QOpenGLWidget
 
 from brdflab.errors import BRDFLabError
 from brdflab.render.lobe_view import LobeViewer
-from brdflab.render.object_view import Display, ObjectRenderer, RenderSettings, negative_pixels
+from brdflab.render.object_view import SAMPLED_MODES, Display, ObjectRenderer, RenderSettings, negative_pixels
 
 
 def set_default_surface_format() -> None:
@@ -251,7 +251,7 @@ class ObjectView(_GLView):
 
     @property
     def comparing(self) -> bool:
-        """Two images at once: in the fis and point modes (an SH table per source would stall)."""
+        """Two images at once: in the fis, mis and point modes (an SH table per source would stall)."""
         return self.compare != "off" and self.compare_source is not None and self.settings.mode != "sh"
 
     def _second_renderer(self) -> ObjectRenderer:
@@ -333,7 +333,7 @@ class ObjectView(_GLView):
                 self._progressive = self.renderer.start_progressive(settings)
                 self._progressive_b = self._second_renderer().start_progressive(settings) if self.comparing else None
             p = self._progressive
-            target = self.settings.samples if self.settings.mode == "fis" else 1
+            target = self.settings.samples if self.settings.mode in SAMPLED_MODES else 1
             if p.samples < target:
                 n = min(self._step_samples, target - p.samples)
                 began = time.perf_counter()
@@ -372,7 +372,7 @@ class ObjectView(_GLView):
             if not self.blank and not self._timer.isActive():
                 self._timer.start()
             return
-        lit_by_map = image.settings.mode in ("fis", "sh", "prefiltered")
+        lit_by_map = image.settings.mode in ("fis", "sh", "prefiltered", "mis")
         other = self._progressive_b if self.comparing and image is self._progressive and self._progressive_b is not None else None
         self.display.draw(image, self.exposure, self.reinhard, gamma=self.gamma,
                           environment=self.renderer if lit_by_map else None, other=other,

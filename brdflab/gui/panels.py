@@ -340,7 +340,7 @@ class ObjectControls(QWidget):
     def __init__(self) -> None:
         super().__init__()
         self.mode = QComboBox()
-        self.mode.addItems(["fis", "point", "sh", "prefiltered"])
+        self.mode.addItems(["fis", "point", "sh", "prefiltered", "mis"])
         self.sh_order = QSpinBox(minimum=1, maximum=10, value=5)
         self.sh_shadows = QCheckBox("SH self-shadowing")
         self.sh_variant = QComboBox()
@@ -355,7 +355,7 @@ class ObjectControls(QWidget):
         self.shown.addItems(list(SHOWN))
         self.shown.setToolTip("What the object shows: the original, the shown fit, both split down the middle "
                               "(original left, fit right), or their relative difference (black 0, white 100 %; "
-                              "fis and point modes)")
+                              "fis, mis and point modes)")
         self.reinhard = QCheckBox("Reinhard")
         mesh, env = QPushButton("Open mesh…"), QPushButton("Open environment…")
         mesh.clicked.connect(self.open_mesh.emit)

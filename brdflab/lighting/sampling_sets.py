@@ -66,3 +66,19 @@ def sample_set(shares: np.ndarray, n: int, rotation: np.ndarray | None = None) -
     out = np.zeros((n, 4), np.float32)
     out[:, :3] = allrows[:, 1:4]
     return out, counts / n
+
+
+def mis_sample_set(shares: np.ndarray, n: int, rotation: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """n samples for multiple importance sampling: half (rounded down) drawn from the
+    environment's luminance (rows (u1, u2, −1, 0)), the rest from the BRDF as in
+    `sample_set`, interleaved by position within their own set. Returns the rows, each
+    lobe's fraction of the BRDF samples and the environment's fraction of all n."""
+    brdf, fractions = sample_set(shares, max(int(n) - int(n) // 2, 1), rotation)
+    n_env = max(int(n) - len(brdf), 0)
+    env = hammersley(n_env)
+    if rotation is not None:
+        env = np.mod(env + rotation, 1.0)
+    keys = np.concatenate([(np.arange(len(brdf)) + 0.5) / len(brdf), (np.arange(n_env) + 0.5) / max(n_env, 1)])
+    rows = np.concatenate([brdf, np.column_stack([env, np.full(n_env, -1.0), np.zeros(n_env)]).astype(np.float32)])
+    out = rows[np.argsort(keys, kind="stable")]
+    return out, fractions, n_env / len(out)

@@ -1,5 +1,6 @@
 """The object view (BRDFLab §7): a material on a mesh or on the reference sphere, lit by a
-point light or by an HDR environment through filtered importance sampling.
+point light or by an HDR environment through filtered importance sampling (of the BRDF,
+or of the BRDF and the map's luminance combined by MIS) or spherical harmonics.
 
 Renders into float targets in any moderngl context; `render()` returns linear radiance.
 """
@@ -21,9 +22,12 @@ from brdflab.io.mesh import Mesh
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.prefiltered import PrefilteredLighting
 from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
-from brdflab.lighting.sampling_sets import lobe_shares, sample_set
+from brdflab.lighting.env_sampling import environment_distribution
+from brdflab.lighting.mip_pyramid import solid_angle_mips
+from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set, sample_set
 
-MODES = ("point", "fis", "sh", "prefiltered")
+MODES = ("point", "fis", "sh", "prefiltered", "mis")
+SAMPLED_MODES = ("fis", "mis")  # refined progressively, one sample set after another
 BATCH = 32  # samples per draw: keeps each draw short on software rasterisers
 VERTEX_ROW = 64  # vertices per row of the per-vertex SH lighting texture
 SAMPLE_ROW = 4096  # samples per row of the sample texture: far below any GL_MAX_TEXTURE_SIZE (≥ 4096 in GL 3.3)
@@ -63,6 +67,8 @@ class ObjectRenderer:
         self._uniforms: dict = {}
         self._shares = np.ones(1)
         self.env_texture: moderngl.Texture | None = None
+        self._env_tables: tuple[moderngl.Texture, moderngl.Texture] | None = None  # MIS: marginal, table
+        self._env_fraction = 0.0
         self.env_size = (1, 1)
         self.camera = OrbitCamera()
         self.model_rotation = np.eye(3)  # turns the object (meshes) in the world
@@ -145,7 +151,9 @@ class ObjectRenderer:
         if self.env_texture is not None:
             self.env_texture.release()
         tex = self.ctx.texture((env.width, env.height), 3, np.ascontiguousarray(env.data, np.float32).tobytes(), dtype="f4")
-        tex.build_mipmaps()
+        tex.build_mipmaps()  # allocates the levels; their contents average by solid angle:
+        for level, texels in enumerate(solid_angle_mips(env.data)[1:], start=1):
+            tex.write(np.ascontiguousarray(texels).tobytes(), level=level)
         tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         tex.repeat_x, tex.repeat_y = True, False
         self.env_texture = tex
@@ -153,6 +161,26 @@ class ObjectRenderer:
         self.environment = env
         self._release_sh()
         self._prefiltered.release_stack()
+        self._release_env_tables()
+
+    # --- environment importance sampling (MIS) -------------------------------------------------
+    def _release_env_tables(self) -> None:
+        if self._env_tables is not None:
+            for tex in self._env_tables:
+                tex.release()
+        self._env_tables = None
+
+    def _env_sampling_tables(self) -> tuple[moderngl.Texture, moderngl.Texture]:
+        """The map's luminance CDFs and density as textures, built once per map."""
+        if self._env_tables is None:
+            dist = environment_distribution(self.environment)
+            marginal = self.ctx.texture((dist.height, 1), 1, dist.marginal.astype(np.float32).tobytes(), dtype="f4")
+            table = np.ascontiguousarray(np.stack([dist.conditional, dist.density], axis=-1), np.float32)
+            table_tex = self.ctx.texture((dist.width, dist.height), 2, table.tobytes(), dtype="f4")
+            for tex in (marginal, table_tex):
+                tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self._env_tables = (marginal, table_tex)
+        return self._env_tables
 
     # --- spherical harmonics ------------------------------------------------------------------
     def _release_sh(self) -> None:
@@ -302,6 +330,8 @@ class ObjectRenderer:
         if key not in self._programs:
             defines = f"#define MODE_{mode.upper()}\n" + ("#define GEOMETRY_REFERENCE\n" if reference else "")
             material = material_source(models, measured)
+            if mode == "mis":
+                material += shader_source("env_sampling.glsl")
             if mode == "sh":
                 defines += f"#define SH_ORDER {self.sh_order}\n"
                 if shadowed:
@@ -350,7 +380,7 @@ class ObjectRenderer:
             _set(prog, "u_table_size", tuple(float(x) for x in self.table_size))
         _set(prog, "u_light_direction", tuple(float(x) for x in settings.light))
         _set(prog, "u_light_color", tuple(float(x) for x in settings.light_color))
-        if settings.mode == "fis":
+        if settings.mode in SAMPLED_MODES:
             if self.env_texture is None:
                 raise BRDFLabError("no environment map for the environment lighting mode")
             self.env_texture.use(0)
@@ -364,6 +394,13 @@ class ObjectRenderer:
             _set(prog, "u_sample_begin", sample_range[0])
             _set(prog, "u_sample_end", sample_range[1])
             _set(prog, "u_set_size", float(set_size))
+        if settings.mode == "mis":
+            marginal, table = self._env_sampling_tables()
+            marginal.use(6)
+            table.use(7)
+            _set(prog, "u_env_marginal", 6)
+            _set(prog, "u_env_table", 7)
+            _set(prog, "u_env_fraction", float(self._env_fraction))
         if settings.mode == "sh":
             order, table, rx, half, _ = self._sh_resources(settings)
             table.use(3)
@@ -396,10 +433,14 @@ class ObjectRenderer:
             self._mesh_vao[key] = self.ctx.vertex_array(prog, [])
         return self._mesh_vao[key]
 
-    def samples_texture(self, n: int, rotation: np.ndarray | None = None) -> moderngl.Texture:
+    def samples_texture(self, n: int, rotation: np.ndarray | None = None, mode: str = "fis") -> moderngl.Texture:
         """The sample set as an RGBA32F texture, SAMPLE_ROW samples per row, so that any
-        count fits under GL's texture size limit (and with the exact lobe shares applied)."""
-        data, fractions = sample_set(self._shares, n, rotation)
+        count fits under GL's texture size limit (and with the exact lobe shares applied);
+        for MIS half of it drawn from the map (mis_sample_set)."""
+        if mode == "mis":
+            data, fractions, self._env_fraction = mis_sample_set(self._shares, n, rotation)
+        else:
+            data, fractions = sample_set(self._shares, n, rotation)
         self._uniforms = {**self._uniforms, "u_lobe_share": fractions.astype(np.float32)}
         rows = -(-len(data) // SAMPLE_ROW)
         limit = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 4096))
@@ -458,7 +499,9 @@ class Progressive:
     """An image that keeps improving while the view stays still: each `step` adds a fresh
     sample set (Cranley–Patterson rotated) to a float accumulation target."""
 
-    def __init__(self, renderer: ObjectRenderer, settings: RenderSettings) -> None:
+    def __init__(self, renderer: ObjectRenderer, settings: RenderSettings, seed: int | None = None) -> None:
+        """`seed`: rotate the first set too (from this seed), so that images with different
+        seeds are independent estimates (what measuring a method's bias needs)."""
         self.renderer = renderer
         self.settings = settings
         ctx = renderer.ctx
@@ -468,7 +511,8 @@ class Progressive:
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.samples = 0
         self.steps = 0
-        self._rng = np.random.default_rng(1)
+        self._rng = np.random.default_rng(1 if seed is None else seed)
+        self._rotate_first = seed is not None
 
     def step(self, samples: int) -> None:
         r, s = self.renderer, self.settings
@@ -481,15 +525,15 @@ class Progressive:
             self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.viewport = (0, 0, s.width, s.height)
         reference = s.reference_view or r.mesh is None
-        if s.mode in ("point", "sh", "prefiltered"):  # deterministic: one depth-tested draw
+        if s.mode not in SAMPLED_MODES:  # deterministic: one depth-tested draw
             if self.steps == 0:
                 _set_state(ctx, depth=not reference, blend=False)
                 ctx.depth_func = "<"
                 r.draw(s)
                 self.samples = 1
         else:
-            rotation = None if self.steps == 0 else self._rng.random(2)
-            tex = r.samples_texture(samples, rotation)
+            rotation = self._rng.random(2) if self.steps or self._rotate_first else None
+            tex = r.samples_texture(samples, rotation, s.mode)
             footprint = self.samples + samples  # filter for all samples so far: the bias vanishes
             if reference:
                 _set_state(ctx, depth=False, blend=False)
