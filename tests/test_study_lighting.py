@@ -63,8 +63,9 @@ def synthetic_numbers():
                "skipped": [{"what": "a measured slice", "why": "not found: nowhere"}],
                "maps": [{"name": "sun", "character": "a sun", "size": [8, 4]},
                         {"name": "sky", "character": "a sky", "size": [8, 4]}],
-               "materials": list(classes), "rows": rows, "sh_tables": tables}
-    numbers["summary"] = summary(rows, numbers["thresholds"])
+               "materials": list(classes), "rows": rows, "sh_tables": tables,
+               "floors": [{"material": "Blinn-Phong n=1000", "map": "sun", "floor": 0.015}]}
+    numbers["summary"] = summary(rows, numbers["thresholds"], numbers["floors"])
     return numbers
 
 
@@ -83,6 +84,8 @@ def test_charts_and_summary_are_drawn_from_the_numbers(tmp_path):
     assert "| Lambertian | sun | SH L=2: 0.6 ms (0.25 %) | SH L=2: 0.6 ms (0.25 %) | SH L=2: 0.6 ms (0.25 %) |" in text
     assert ("| Blinn-Phong n=100 | sky | none (best SH L=4 1.2 %) | SH L=4: 1.2 ms (1.2 %) | "
             "SH L=2: 0.6 ms (2.5 %) |") in text
+    assert ("| Blinn-Phong n=1000 | sun | not judged (reference ±1.5 %) | none (best FIS n=64 2.5 %) | "
+            "FIS n=16: 8 ms (5 %) |") in text  # the reference resolves 2 % there, not 1 %
     assert "| Lambertian | 3.0 s | 6.0 s |" in text and "Skipped a measured slice: not found: nowhere." in text
 
 
@@ -99,6 +102,7 @@ def test_a_scoped_run_measures_every_mode_on_the_current_scene(tmp_path):
     rows = numbers["rows"]
     assert {r["mode"] for r in rows} == set(object_view.MODES)
     assert all(r["ms"] > 0 for r in rows) and numbers["reduced"] == [64, 32]
+    assert numbers["floors"][0]["floor"] < 1e-3  # a constant sky: texel centres integrate it exactly
     errors = {(r["mode"], r["value"]): r["error"] for r in rows if r["error"] is not None}
     for (mode, value), error in errors.items():
         assert error < 0.05, (mode, value, error)  # a constant sky is easy for every method

@@ -25,6 +25,7 @@ from brdflab.study.lighting_charts import draw, summary
 
 THRESHOLDS = (0.01, 0.02, 0.05)  # error targets of the summary table
 REDUCED = (128, 64)  # the map the error is measured with (render and reference alike)
+FLOOR_SIZE = 16  # image size of the reference's own resolution check (cheap; an estimate)
 SHORT_FRAME_S = 0.2  # frames shorter than this are timed three times (best kept)
 
 
@@ -145,6 +146,20 @@ def reduced(env: EnvironmentMap) -> EnvironmentMap:
 
 
 # --- measuring -------------------------------------------------------------------------------
+def reference_floor(source, small: EnvironmentMap) -> float:
+    """How far the quadrature reference can be trusted: its relative change when every texel
+    of the reduced map is split 2 × 2 (the same radiance, four times the quadrature points).
+    Lobes narrower than a texel fall between texel centres: errors below this are not resolved."""
+    import numpy as np
+
+    from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
+
+    split = EnvironmentMap(np.repeat(np.repeat(small.data, 2, axis=0), 2, axis=1), small.name, small.path)
+    coarse = environment_image(source, small, FLOOR_SIZE, FLOOR_SIZE)
+    fine = environment_image(source, split, FLOOR_SIZE, FLOOR_SIZE)
+    return relative_rmse(coarse, fine, sphere_view(FLOOR_SIZE, FLOOR_SIZE).inside)
+
+
 def frame_ms(renderer, settings) -> float:
     """Milliseconds per frame: a tiny frame first (compiles the program, builds the mode's
     resources), then one frame; a short one is timed again and the best kept."""
@@ -203,7 +218,7 @@ def measure(context: StudyContext) -> dict:
                "reduced": list(next(iter(small.values())).data.shape[1::-1]), "timing_map": maps[0][0],
                "thresholds": list(THRESHOLDS), "modes": list(modes), "skipped": skipped,
                "maps": [{"name": n, "character": c, "size": [e.width, e.height]} for n, c, e in maps],
-               "materials": list(classes), "rows": [], "sh_tables": []}
+               "materials": list(classes), "rows": [], "sh_tables": [], "floors": []}
     for material, make in classes.items():
         source = make()
         scene.frames.set_source(source)
@@ -214,6 +229,7 @@ def measure(context: StudyContext) -> dict:
                 return finish(numbers)
             context.progress(f"lighting: {material} on {name}: quadrature reference ({scene.error_size}²)")
             references[name] = environment_image(source, small[name], scene.error_size, scene.error_size)
+            numbers["floors"].append({"material": material, "map": name, "floor": reference_floor(source, small[name])})
         for mode, settings in modes.items():
             for setting in settings:
                 if context.cancelled():
@@ -255,7 +271,7 @@ def measure_setting(scene: Scene, numbers: dict, material: str, source, mode: st
 
 def finish(numbers: dict) -> dict:
     """The numbers with their summary: the cheapest method under each error target."""
-    numbers["summary"] = summary(numbers["rows"], numbers["thresholds"])
+    numbers["summary"] = summary(numbers["rows"], numbers["thresholds"], numbers["floors"])
     return numbers
 
 

@@ -29,14 +29,22 @@ def method_name(row: dict) -> str:
     return f"{name} {row['setting']}".rstrip()
 
 
-def summary(rows: list[dict], thresholds: list[float]) -> list[dict]:
-    """Per material and map, the cheapest method reaching each error target (mode None: none)."""
+def floor_of(floors: list[dict], material: str, env: str) -> float:
+    """The reference's own resolution on this scene (0 when it was not measured)."""
+    return next((f["floor"] for f in floors if f["material"] == material and f["map"] == env), 0.0)
+
+
+def summary(rows: list[dict], thresholds: list[float], floors: list[dict] = ()) -> list[dict]:
+    """Per material and map, the cheapest method reaching each error target (mode None:
+    none does). A target the reference cannot resolve (at or below its floor) is not judged:
+    `resolved` is False there."""
     out = []
     for material, env in dict.fromkeys((r["material"], r["map"]) for r in rows):
         scene = [r for r in rows if r["material"] == material and r["map"] == env]
+        floor = floor_of(floors, material, env)
         for target in thresholds:
-            best = cheapest_under(scene, target)
-            out.append({"material": material, "map": env, "target": target,
+            best = cheapest_under(scene, target) if target > floor else None
+            out.append({"material": material, "map": env, "target": target, "resolved": target > floor,
                         **({k: best[k] for k in ("mode", "setting", "ms", "error")} if best else
                            {"mode": None, "setting": None, "ms": None, "error": None})})
     return out
@@ -82,6 +90,10 @@ def pareto_chart(numbers: dict, material: str, out_dir: Path) -> str:
             for r in line:
                 ax.annotate(r["setting"].split("=")[-1], (r["ms"], 100 * max(r["error"], 1e-5)), fontsize=6.5,
                             textcoords="offset points", xytext=(3, 3), color=color)
+        floor = 100 * floor_of(numbers["floors"], material, env["name"])
+        if floor > 0:
+            ax.axhspan(1e-3, floor, color="grey", alpha=0.18, lw=0,
+                       label="below the reference's resolution (not judged)")
         front = pareto_front(rows)
         ax.loglog([r["ms"] for r in front], [100 * max(r["error"], 1e-5) for r in front], "-", color="black",
                   lw=2.2, alpha=0.25, drawstyle="steps-post", label="Pareto front")
@@ -90,6 +102,8 @@ def pareto_chart(numbers: dict, material: str, out_dir: Path) -> str:
         for target in numbers["thresholds"]:
             ax.axhline(100 * target, color="grey", lw=0.6, ls=":")
         ax.set_title(f"{env['name']} ({env['character']})", fontsize=9)
+        lowest = min([100 * r["error"] for r in rows if r["error"]] + ([floor] if floor > 0 else []), default=1.0)
+        ax.set_ylim(bottom=max(lowest / 2, 1e-3))
         ax.set_xlabel(f"ms per frame at {numbers['frame_size']}²")
         ax.grid(True, which="major", lw=0.3, alpha=0.5)
     axes[0][0].set_ylabel("relative RMSE vs quadrature (%)")
@@ -131,9 +145,11 @@ def heat_map(numbers: dict, mode: str, out_dir: Path) -> str:
     for k, (ax, env) in enumerate(zip(axes[0], maps)):
         names, values, error, negative = heat_grid(numbers, mode, env["name"])
         image = ax.imshow(np.clip(100 * error, 0.1, 100), cmap="magma_r", norm=LogNorm(0.1, 100), aspect="auto")
+        floors = [floor_of(numbers["floors"], n, env["name"]) for n in names]
         for (i, j), e in np.ndenumerate(error):
             if np.isfinite(e):
-                text = f"{100 * e:.1f}" + (f"\n{int(negative[i, j])} neg" if negative[i, j] else "")
+                text = f"{100 * e:.1f}" + ("*" if e <= floors[i] else "") + (
+                    f"\n{int(negative[i, j])} neg" if negative[i, j] else "")
                 ax.text(j, i, text, ha="center", va="center", fontsize=6.5, color="white" if e > 0.1 else "black")
         ax.set_xticks(range(len(values)), [str(v) for v in values], fontsize=8)
         ax.set_yticks(range(len(names)), [n.replace("Blinn-Phong ", "BP ") if k == 0 else "" for n in names],
@@ -146,7 +162,8 @@ def heat_map(numbers: dict, mode: str, out_dir: Path) -> str:
     what = ("FIS error (%) over glossiness × samples" if mode != "sh" else
             f"SH error (%) over glossiness × order; neg: pixels clamped from negative (ringing), of ~{covered}")
     fig.suptitle(what, fontsize=10)
-    caption = fis_caption(numbers) if mode == "fis" else sh_caption(numbers)
+    caption = ("* at or below the reference's own resolution (not judged). "
+               + (fis_caption(numbers) if mode == "fis" else sh_caption(numbers)))
     fig.text(0.01, 0.02, textwrap.fill(caption, int(width * 17)), fontsize=7.5, va="bottom")
     return save_figure(fig, out_dir / f"lighting_{mode}_heatmap.png")
 
@@ -193,7 +210,9 @@ def summary_markdown(numbers: dict, out_dir: Path) -> str:
              f"Frame time: reference-view sphere at {numbers['frame_size']}² on {numbers['renderer']} "
              f"(the full-resolution {numbers['timing_map']} map). Error: relative RMSE at "
              f"{numbers['error_size']}² against quadrature, the map reduced to {numbers['reduced'][0]} × "
-             f"{numbers['reduced'][1]} for render and reference. 'none' gives the best error reached.", "",
+             f"{numbers['reduced'][1]} for render and reference. 'none' gives the best error reached. "
+             "'not judged': the target is within the reference's own resolution (its change when every "
+             "texel is split 2 × 2; lobes narrower than a texel fall between texel centres).", "",
              "| material | map | " + " | ".join(f"≤ {100 * t:g} %" for t in targets) + " |",
              "|---|---|" + "---|" * len(targets)]
     by_scene: dict[tuple, dict] = {}
@@ -205,8 +224,12 @@ def summary_markdown(numbers: dict, out_dir: Path) -> str:
         texts = []
         for t in targets:
             c = cells[t]
-            texts.append(f"{method_name(c)}: {c['ms']:.3g} ms ({100 * c['error']:.2g} %)" if c["mode"] else
-                         f"none (best {method_name(best)} {100 * best['error']:.2g} %)" if best else "none")
+            if not c.get("resolved", True):
+                texts.append(f"not judged (reference ±{100 * floor_of(numbers['floors'], material, env):.2g} %)")
+            elif c["mode"]:
+                texts.append(f"{method_name(c)}: {c['ms']:.3g} ms ({100 * c['error']:.2g} %)")
+            else:
+                texts.append(f"none (best {method_name(best)} {100 * best['error']:.2g} %)" if best else "none")
         lines.append(f"| {material} | {env} | " + " | ".join(texts) + " |")
     point = {r["material"]: r["ms"] for r in numbers["rows"] if r["mode"] == "point"}
     if point:
