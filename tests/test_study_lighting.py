@@ -77,8 +77,9 @@ def test_charts_and_summary_are_drawn_from_the_numbers(tmp_path):
                      "lighting_sh_heatmap.png", "lighting_summary.md"]
     for name in files[:-1]:
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "Lambertian on sun 12 %." in fis_caption(numbers)  # 0.5·√(4/64): the only FIS break
-    assert "Breaks (above 5 % at L=4 on some map): Blinn-Phong n=1000." in sh_caption(numbers)
+    assert "Breaks (above 5 % at n=64): Lambertian on sun 12 %." in fis_caption(numbers)  # 0.5·√(4/64)
+    assert ("Breaks (above 5 % at L=4): Blinn-Phong n=1000 on sun 12 %; Blinn-Phong n=1000 on sky 12 %."
+            in sh_caption(numbers))
     assert "most 7" in sh_caption(numbers)
     text = (tmp_path / "lighting_summary.md").read_text()
     assert "| Lambertian | sun | SH L=2: 0.6 ms (0.25 %) | SH L=2: 0.6 ms (0.25 %) | SH L=2: 0.6 ms (0.25 %) |" in text
@@ -135,6 +136,17 @@ def test_maps_without_the_shared_data_fall_back_to_the_shipped_one_and_say_why(t
     assert skipped[0]["what"] == "quarry_01_1k.hdr" and "no shared data" in skipped[0]["why"]
     classes = lighting.material_classes(quick=False, skipped=skipped)
     assert lighting.MEASURED_CLASS not in classes and skipped[-1]["what"] == lighting.MEASURED_CLASS
+
+
+def test_the_reference_resolves_broad_lobes_and_says_when_a_lobe_falls_between_texels():
+    """On the shipped sunset map (128 × 64 texels of 2.8°): a Lambertian integrates the same
+    when texels are split, a Blinn-Phong n=10000 lobe (about 1° wide) does not."""
+    from brdflab.io.resources import data_dir
+    from brdflab.lighting.envmap import load_environment
+
+    small = lighting.reduced(load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"))
+    assert lighting.reference_floor(lighting.MATERIAL_CLASSES["Lambertian"](), small) < 0.005
+    assert lighting.reference_floor(lighting.MATERIAL_CLASSES["Blinn-Phong n=10000"](), small) > 0.05
 
 
 def test_maps_are_reduced_evenly_or_refused():
