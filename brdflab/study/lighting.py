@@ -4,9 +4,12 @@ mode the object view has, per material class, on real environment maps.
 Error: relative RMSE of the reference-view sphere against NumPy quadrature over the map's
 texels (`reference_view.environment_image`), the map area-averaged to 128 × 64 for both
 the render and the reference. Frame time: one frame of the reference view with the full
-map, on whatever OpenGL this machine has. The sweep is driven by `object_view.MODES`
-through `MODE_SWEEPS`, one row of settings per mode; a mode without a row is an error, so
-no method the renderer gains goes unmeasured. The charts are drawn by `lighting_charts`.
+map, on whatever OpenGL this machine has, once per material and setting (the map's content
+does not change the work per pixel; SH frames read only order² lighting coefficients). The
+reference's own resolution is measured too (`reference_floor`): targets within it are not
+judged. The sweep is driven by `object_view.MODES` through `MODE_SWEEPS`, one row of
+settings per mode; a mode without a row is an error, so no method the renderer gains goes
+unmeasured. The charts are drawn by `lighting_charts`.
 """
 
 from __future__ import annotations
@@ -15,6 +18,8 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.io.resources import data_dir, shared_data_dir
@@ -150,8 +155,6 @@ def reference_floor(source, small: EnvironmentMap) -> float:
     """How far the quadrature reference can be trusted: its relative change when every texel
     of the reduced map is split 2 × 2 (the same radiance, four times the quadrature points).
     Lobes narrower than a texel fall between texel centres: errors below this are not resolved."""
-    import numpy as np
-
     from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
 
     split = EnvironmentMap(np.repeat(np.repeat(small.data, 2, axis=0), 2, axis=1), small.name, small.path)
