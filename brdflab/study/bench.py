@@ -20,9 +20,9 @@ from brdflab.lighting.envmap import load_environment
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import all_models
 from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
-from brdflab.io.resources import data_dir, shared_data_dir
+from brdflab.io.resources import data_dir
+from brdflab.study.framework import measured_slice
 
-DATA_SLICE = ("merl_slices", "gold-metallic-paint3.slice")  # under the developers' shared data
 Progress = Callable[[str], None]
 
 
@@ -41,15 +41,6 @@ BENCH_MATERIALS = {
     "anisotropic": lambda: AnalyticMaterial("anisotropic", "Linear", 3, [Lobe.create("Lambertian", [0.03] * 3),
                                                                          Lobe.create("Ward", [0.6] * 3, ax=0.08, ay=0.3)]),
 }
-
-
-def measured_slice() -> tuple[Path | None, str]:
-    """The measured slice the SH benchmark tabulates, or None and why it is missing."""
-    shared = shared_data_dir()
-    if shared is None:
-        return None, "no shared data: set BRDFLAB_SHARED, or put shared/data next to the checkout"
-    path = shared.joinpath(*DATA_SLICE)
-    return (path, "") if path.is_file() else (None, f"not found: {path}")
 
 
 def _timed(fn, repeat: int) -> float:

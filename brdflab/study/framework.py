@@ -21,11 +21,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.resources import shared_data_dir
 
 Progress = Callable[[str], None]
 
 # the modules that define parts, in the order a study runs them
-PART_MODULES = ("brdflab.study.viewer", "brdflab.study.prefiltered")
+PART_MODULES = ("brdflab.study.viewer", "brdflab.study.lighting", "brdflab.study.prefiltered")
+DATA_SLICE = ("merl_slices", "gold-metallic-paint3.slice")  # under the developers' shared data
 
 
 def quiet(message: str) -> None:
@@ -105,6 +107,15 @@ def run_study(out_dir: Path, context: StudyContext, only: list[str] | None = Non
                "quick": context.quick, "seconds": result.seconds, "charts": result.charts, "parts": result.numbers}
     atomic_write(out_dir / "study.json", json.dumps(payload, indent=1).encode())
     return result
+
+
+def measured_slice() -> tuple[Path | None, str]:
+    """The measured MERL slice that studies and the bench use, or None and why it is missing."""
+    shared = shared_data_dir()
+    if shared is None:
+        return None, "no shared data: set BRDFLAB_SHARED, or put shared/data next to the checkout"
+    path = shared.joinpath(*DATA_SLICE)
+    return (path, "") if path.is_file() else (None, f"not found: {path}")
 
 
 def check_finite(numbers, where: str) -> None:
