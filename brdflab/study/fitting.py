@@ -1,0 +1,165 @@
+"""Study part `fitting`: the fit's error against its wall time, for every registry model
+with one and two lobes (after a Lambertian), Linear and Fixed, fitted on all samples and
+on stratified subsets, on the shared MERL slices.
+
+The error is always the Ngan metric of the result on ALL samples of the source, whatever
+the fit saw; the time is the fit's wall time (the fitter's defaults: restarts on a
+60,000-sample coarse subset, then a polish on the fitted set).
+
+The full matrix (16 models × 2 lobe counts × 2 combinations × 5 sample sets × 31 slices,
+about 9,600 fits of 0.1–60 s) does not fit a 30–40 min run on two cores, so the full run
+has two tiers (`design`):
+- core: on every slice, every model with one lobe (and the Lambertian alone), Linear, on
+  all samples — every model on every material, the reference of the pooled chart;
+- sampled: every family (model × lobe count × combination) on `PER_FAMILY` slices, at
+  every subset size and on all samples; all families of a model share their slices (so a
+  material's chart shows that model's whole story: lobes, combination, subset curve), and
+  successive models rotate over the sorted slices so that every slice gets the same share
+  and each model sees materials far apart. A scoped run (the GUI's current source) fits a small matrix on that source.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from brdflab.errors import BRDFLabError
+from brdflab.models import model_names
+from brdflab.study.fit_jobs import FitJob, register_source, run_job
+from brdflab.study.fitting_charts import LESSON, draw, summarise
+from brdflab.study.framework import Part, StudyContext, register
+from brdflab.study.workers import core_count, run_jobs
+
+SIZES = (5_000, 20_000, 50_000, 200_000)
+PER_FAMILY = 2
+QUICK_SLICES = ("blue-fabric", "nickel")
+QUICK_MODELS = ("BlinnPhong", "Ward")
+QUICK_SIZES = (2_000, 10_000)
+SCOPED_MODELS = ("BlinnPhong", "CookTorrance", "Ward", "LafortuneIso")
+SCOPED_SIZES = (5_000, 50_000)
+
+
+@dataclass(frozen=True)
+class Family:
+    """A lobe configuration: `model` after a Lambertian `lobes` times (0: Lambertian alone)."""
+
+    model: str
+    lobes: int
+    combination: str
+
+    @property
+    def lobe_names(self) -> tuple[str, ...]:
+        return (self.model,) * self.lobes
+
+    @property
+    def core(self) -> bool:
+        """Fitted on every material, on all samples."""
+        return self.lobes <= 1 and self.combination == "Linear"
+
+    @property
+    def label(self) -> str:
+        name = "Lambertian" if self.lobes == 0 else f"{self.lobes}×{self.model}"
+        return f"{name} {self.combination}"
+
+
+def families(models: list[str]) -> list[Family]:
+    """The Lambertian alone, then every model with one and two lobes, Linear and Fixed."""
+    out = [Family("Lambertian", 0, c) for c in ("Linear", "Fixed")]
+    return out + [Family(m, n, c) for m in models if m != "Lambertian" for n in (1, 2) for c in ("Linear", "Fixed")]
+
+
+def design(slices: list[str], models: list[str], sizes: tuple[int, ...], per_family: int,
+           sampled_on_all: bool = True) -> list[tuple[str, Family, int | None]]:
+    """(slice, family, size or None for all samples) of every fit, without repeats: core
+    families on every slice on all samples; every family at every size (and on all
+    samples if `sampled_on_all`) on `per_family` slices, the same for all families of a
+    model (model k starts at slice k and takes slices len/per_family apart)."""
+    plan: dict[tuple, None] = {}
+    fams = families(models)
+    for family in fams:
+        if family.core:
+            for s in slices:
+                plan[(s, family, None)] = None
+    stride = max(1, len(slices) // max(1, per_family))
+    model_order = list(dict.fromkeys(f.model for f in fams))
+    for family in fams:  # a model's families share slices: its whole story on one material
+        k = model_order.index(family.model)
+        chosen = {slices[(k + j * stride) % len(slices)] for j in range(min(per_family, len(slices)))}
+        for s in sorted(chosen):
+            for size in (*sizes, None) if sampled_on_all else sizes:
+                plan[(s, family, size)] = None
+    return list(plan)
+
+
+def _slices(context: StudyContext) -> dict[str, str]:
+    """Material name → slice path of the shared MERL slices (quick: a few)."""
+    from brdflab.io.resources import shared_data_dir
+
+    data = shared_data_dir()
+    folder = data / "merl_slices" if data is not None else None
+    if folder is None or not folder.is_dir():
+        raise BRDFLabError("the fitting study needs the shared MERL slices: set BRDFLAB_SHARED, "
+                           "or put shared/data next to the checkout (or scope it to a source)")
+    paths = {p.stem: str(p) for p in sorted(folder.glob("*.slice"))}
+    if context.quick:
+        paths = {k: paths[k] for k in QUICK_SLICES if k in paths}
+    if not paths:
+        raise BRDFLabError(f"no MERL slices in {folder}")
+    return paths
+
+
+def _expected_cost(job: FitJob) -> float:
+    """A rough relative cost, to start the longest fits first (the pool then balances)."""
+    samples = 1_100_000 if job.size is None else job.size
+    fixed = 3 if job.combination == "Fixed" else 1
+    return (len(job.lobes) + 1) * fixed * (60_000 + samples)
+
+
+def _load_average() -> float | None:
+    try:
+        return round(os.getloadavg()[0], 2)
+    except OSError:
+        return None
+
+
+def measure(context: StudyContext) -> dict:
+    source = context.source
+    if source is not None:
+        key = register_source("current source", source)
+        slices = {getattr(source, "name", None) or "current source": key}
+        models, sizes, per_family = list(SCOPED_MODELS[:2] if context.quick else SCOPED_MODELS), SCOPED_SIZES, 1
+        workers = 1  # in memory: this process only
+    else:
+        slices = _slices(context)
+        models = list(QUICK_MODELS) if context.quick else model_names()
+        sizes = QUICK_SIZES if context.quick else SIZES
+        per_family = 1 if context.quick else PER_FAMILY
+        workers = 1 if context.quick else core_count()
+    # quick: the non-core families on subsets only (a Fixed two-lobe fit on all samples alone
+    # takes 10–50 s); a scoped run fits one source, where all-sample fits are the point
+    plan = design(list(slices), models, sizes, per_family, sampled_on_all=not context.quick or source is not None)
+    if source is not None:  # one source: Fixed only with one lobe, to stay short
+        plan = [p for p in plan if p[1].combination == "Linear" or p[1].lobes <= 1]
+    jobs = [FitJob(slices[s], f.lobe_names, f.combination, size,
+                   tag={"material": s, "model": f.model, "lobes_count": f.lobes, "family": f.label,
+                        "size": size, "core": f.core and size is None})
+            for s, f, size in plan]
+    jobs.sort(key=_expected_cost, reverse=True)
+    started = time.time()
+    load_before = _load_average()
+
+    def progress(done: int, total: int) -> None:
+        if done % max(1, total // 20) == 0 or done == total:
+            context.progress(f"fitting: {done}/{total} fits, {time.time() - started:.0f} s")
+
+    rows = run_jobs(run_job, jobs, workers, progress, context.cancelled)
+    return {**summarise(rows), "metric": "Ngan", "workers": workers, "materials": list(slices), "models": models,
+            "sizes": list(sizes), "per_family": per_family, "fits_planned": len(jobs), "fits_done": len(rows),
+            "wall_s": time.time() - started, "load_average": {"before": load_before, "after": _load_average()},
+            "rows": rows}
+
+
+register(Part("fitting", "fitting: error on all samples against fit time, per model, lobes, combination and subset",
+              measure, draw, lesson=LESSON))
