@@ -33,7 +33,7 @@ from brdflab.study.framework import Part, StudyContext, register
 from brdflab.study.workers import core_count, run_jobs
 
 SIZES = (5_000, 20_000, 50_000, 200_000)
-PER_FAMILY = 2
+PER_FAMILY = 1
 QUICK_SLICES = ("blue-fabric", "nickel")
 QUICK_MODELS = ("BlinnPhong", "Ward")
 QUICK_SIZES = (2_000, 10_000)
@@ -75,7 +75,8 @@ def design(slices: list[str], models: list[str], sizes: tuple[int, ...], per_fam
     """(slice, family, size or None for all samples) of every fit, without repeats: core
     families on every slice on all samples; every family at every size (and on all
     samples if `sampled_on_all`) on `per_family` slices, the same for all families of a
-    model (model k starts at slice k and takes slices len/per_family apart)."""
+    model (the models' first slices spread evenly over the list, the others
+    len/per_family apart)."""
     plan: dict[tuple, None] = {}
     fams = families(models)
     for family in fams:
@@ -85,8 +86,8 @@ def design(slices: list[str], models: list[str], sizes: tuple[int, ...], per_fam
     stride = max(1, len(slices) // max(1, per_family))
     model_order = list(dict.fromkeys(f.model for f in fams))
     for family in fams:  # a model's families share slices: its whole story on one material
-        k = model_order.index(family.model)
-        chosen = {slices[(k + j * stride) % len(slices)] for j in range(min(per_family, len(slices)))}
+        first = model_order.index(family.model) * len(slices) // len(model_order)
+        chosen = {slices[(first + j * stride) % len(slices)] for j in range(min(per_family, len(slices)))}
         for s in sorted(chosen):
             for size in (*sizes, None) if sampled_on_all else sizes:
                 plan[(s, family, size)] = None
@@ -136,13 +137,14 @@ def measure(context: StudyContext) -> dict:
         models = list(QUICK_MODELS) if context.quick else model_names()
         sizes = QUICK_SIZES if context.quick else SIZES
         per_family = 1 if context.quick else PER_FAMILY
-        workers = 1 if context.quick else core_count()
+        workers = core_count()
     # quick: the non-core families on subsets only (a Fixed two-lobe fit on all samples alone
     # takes 10–50 s); a scoped run fits one source, where all-sample fits are the point
     plan = design(list(slices), models, sizes, per_family, sampled_on_all=not context.quick or source is not None)
     if source is not None:  # one source: Fixed only with one lobe, to stay short
         plan = [p for p in plan if p[1].combination == "Linear" or p[1].lobes <= 1]
-    jobs = [FitJob(slices[s], f.lobe_names, f.combination, size,
+    clock = "wall" if workers == 1 else "cpu"
+    jobs = [FitJob(slices[s], f.lobe_names, f.combination, size, clock=clock,
                    tag={"material": s, "model": f.model, "lobes_count": f.lobes, "family": f.label,
                         "size": size, "core": f.core and size is None})
             for s, f, size in plan]
@@ -155,7 +157,7 @@ def measure(context: StudyContext) -> dict:
             context.progress(f"fitting: {done}/{total} fits, {time.time() - started:.0f} s")
 
     rows = run_jobs(run_job, jobs, workers, progress, context.cancelled)
-    return {**summarise(rows), "metric": "Ngan", "workers": workers, "materials": list(slices), "models": models,
+    return {**summarise(rows), "metric": "Ngan", "workers": workers, "clock": clock, "materials": list(slices), "models": models,
             "sizes": list(sizes), "per_family": per_family, "fits_planned": len(jobs), "fits_done": len(rows),
             "wall_s": time.time() - started, "load_average": {"before": load_before, "after": _load_average()},
             "rows": rows}

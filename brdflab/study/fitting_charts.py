@@ -17,7 +17,7 @@ from brdflab.study.pareto import enough_point, gain, pareto_front
 
 PAGE = 12  # material panels per chart file
 ENOUGH = 0.05  # "stops paying": within 5 % of the best error found
-TIME_LABEL = "fit time (CPU s, one thread)"
+TIME_LABELS = {"cpu": "fit time (CPU s, one thread)", "wall": "fit wall time (s)"}
 MARKERS = {(0, "Linear"): "D", (0, "Fixed"): "d", (1, "Linear"): "o", (1, "Fixed"): "s",
            (2, "Linear"): "^", (2, "Fixed"): "v"}
 
@@ -150,7 +150,7 @@ def _legend(fig, colors, ncol: int = 8) -> None:
     fig.legend(handles=handles, loc="lower center", ncol=ncol, fontsize=7, frameon=False)
 
 
-def draw_materials(rows: list[dict], out_dir: Path, fronts: dict) -> list[str]:
+def draw_materials(rows: list[dict], out_dir: Path, fronts: dict, time_label: str) -> list[str]:
     plt = pyplot()
     colors = _colors({r["model"] for r in rows})
     materials = list(fronts)
@@ -177,7 +177,7 @@ def draw_materials(rows: list[dict], out_dir: Path, fronts: dict) -> list[str]:
             ax.tick_params(labelsize=7)
             ax.grid(True, which="both", alpha=0.2)
         for ax in axes[-1]:
-            ax.set_xlabel(TIME_LABEL, fontsize=8)
+            ax.set_xlabel(time_label, fontsize=8)
         for ax in axes[:, 0]:
             ax.set_ylabel("Ngan error on all samples", fontsize=8)
         fig.suptitle("Fitting: error on all samples against fit time, per material", fontsize=11)
@@ -188,7 +188,8 @@ def draw_materials(rows: list[dict], out_dir: Path, fronts: dict) -> list[str]:
     return files
 
 
-def draw_pooled(rows: list[dict], out_dir: Path, summary: list[dict], subsets: list[dict], gains: list[dict]) -> str:
+def draw_pooled(rows: list[dict], out_dir: Path, summary: list[dict], subsets: list[dict], gains: list[dict],
+                time_label: str) -> str:
     plt = pyplot()
     colors = _colors({r["model"] for r in rows})
     fig, (a, b, c) = plt.subplots(1, 3, figsize=(17, 5.8), dpi=100, gridspec_kw={"width_ratios": [1.6, 1, 1.2]})
@@ -207,7 +208,7 @@ def draw_pooled(rows: list[dict], out_dir: Path, summary: list[dict], subsets: l
     a.plot(cost[e], err[e], "*", color="red", ms=15, mec="black", mew=0.5)
     a.set_xscale("log")
     a.set_yscale("log")
-    a.set_xlabel(f"{TIME_LABEL} on all samples: median, bar = range over materials")
+    a.set_xlabel(f"{time_label} on all samples: median, bar = range over materials")
     a.set_ylabel("error / the material's best one-lobe Linear error")
     a.set_title("All materials pooled (median and range per configuration)", fontsize=10)
     a.grid(True, which="both", alpha=0.2)
@@ -266,6 +267,7 @@ def draw(numbers: dict, out_dir: Path) -> list[str]:
     rows = numbers["rows"]
     if not rows:
         return []
-    files = draw_materials(rows, out_dir, numbers["fronts"])
-    files.append(draw_pooled(rows, out_dir, numbers["families"], numbers["subsets"], numbers["gains"]))
+    label = TIME_LABELS[numbers["clock"]]
+    files = draw_materials(rows, out_dir, numbers["fronts"], label)
+    files.append(draw_pooled(rows, out_dir, numbers["families"], numbers["subsets"], numbers["gains"], label))
     return files
