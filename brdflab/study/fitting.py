@@ -7,15 +7,17 @@ the fit saw; the time is the fit's wall time (the fitter's defaults: restarts on
 60,000-sample coarse subset, then a polish on the fitted set).
 
 The full matrix (16 models × 2 lobe counts × 2 combinations × 5 sample sets × 31 slices,
-about 9,600 fits of 0.1–60 s) does not fit a 30–40 min run on two cores, so the full run
-has two tiers (`design`):
-- core: on every slice, every model with one lobe (and the Lambertian alone), Linear, on
-  all samples — every model on every material, the reference of the pooled chart;
-- sampled: every family (model × lobe count × combination) on `PER_FAMILY` slices, at
-  every subset size and on all samples; all families of a model share their slices (so a
-  material's chart shows that model's whole story: lobes, combination, subset curve), and
-  successive models rotate over the sorted slices so that every slice gets the same share
-  and each model sees materials far apart. A scoped run (the GUI's current source) fits a small matrix on that source.
+about 9,600 fits of 0.05–200 s) does not fit a 30–40 min run on two cores, so a run
+fits a `Matrix` in two tiers (`design`):
+- core: on every slice, every model with one lobe (and the Lambertian alone), Linear,
+  on a `core_size` subset — every model on every material, the reference of the pooled
+  chart (the subset chart shows what fitting a subset costs in error);
+- sampled: every family (model × lobe count × combination) at every size of `sizes`
+  (Linear) or `fixed_sizes` (Fixed), all samples included, on `per_model` slices; all
+  families of a model share their slices (a material's chart shows that model's whole
+  story: lobes, combination, subset curve), and the models' slices spread evenly over
+  the sorted list.
+A scoped run (the GUI's current source) fits a small matrix on that source alone.
 """
 
 from __future__ import annotations
@@ -32,13 +34,28 @@ from brdflab.study.fitting_charts import LESSON, draw, summarise
 from brdflab.study.framework import Part, StudyContext, register
 from brdflab.study.workers import core_count, run_jobs
 
-SIZES = (5_000, 20_000, 50_000, 200_000)
-PER_FAMILY = 1
 QUICK_SLICES = ("blue-fabric", "nickel")
-QUICK_MODELS = ("BlinnPhong", "Ward")
-QUICK_SIZES = (2_000, 10_000)
-SCOPED_MODELS = ("BlinnPhong", "CookTorrance", "Ward", "LafortuneIso")
-SCOPED_SIZES = (5_000, 50_000)
+
+
+@dataclass(frozen=True)
+class Matrix:
+    """What one run fits (sizes: samples fitted, None for all)."""
+
+    models: tuple[str, ...]
+    core_size: int | None
+    sizes: tuple[int | None, ...]  # the sampled tier's Linear families
+    fixed_sizes: tuple[int | None, ...]  # its Fixed families
+    per_model: int = 1
+    two_fixed: bool = True  # Fixed with two lobes (3 × 2 per-channel lobes)
+
+
+# the full run: ≈ 500 core fits on 20 k samples + 15 × 18 sampled fits (≈ 40 CPU-min);
+# Fixed fits skip 200 k (≈ 40 % of an all-sample Fixed fit's cost, between 50 k and all)
+FULL = Matrix(tuple(model_names()), 20_000, (5_000, 20_000, 50_000, 200_000, None), (5_000, 20_000, 50_000, None))
+QUICK = Matrix(("Lambertian", "BlinnPhong", "Ward"), 10_000, (2_000, 10_000, None), (2_000, 10_000))
+SCOPED = Matrix(("Lambertian", "BlinnPhong", "CookTorrance", "Ward", "LafortuneIso"), None,
+                (5_000, 50_000, None), (50_000,), two_fixed=False)
+SCOPED_QUICK = Matrix(("Lambertian", "BlinnPhong", "CookTorrance"), None, (5_000, None), (20_000,), two_fixed=False)
 
 
 @dataclass(frozen=True)
@@ -55,7 +72,7 @@ class Family:
 
     @property
     def core(self) -> bool:
-        """Fitted on every material, on all samples."""
+        """Fitted on every material."""
         return self.lobes <= 1 and self.combination == "Linear"
 
     @property
@@ -70,31 +87,29 @@ def families(models: list[str]) -> list[Family]:
     return out + [Family(m, n, c) for m in models if m != "Lambertian" for n in (1, 2) for c in ("Linear", "Fixed")]
 
 
-def design(slices: list[str], models: list[str], sizes: tuple[int, ...], per_family: int,
-           sampled_on_all: bool = True) -> list[tuple[str, Family, int | None]]:
+def design(slices: list[str], matrix: Matrix) -> list[tuple[str, Family, int | None]]:
     """(slice, family, size or None for all samples) of every fit, without repeats: core
-    families on every slice on all samples; every family at every size (and on all
-    samples if `sampled_on_all`) on `per_family` slices, the same for all families of a
-    model (the models' first slices spread evenly over the list, the others
-    len/per_family apart)."""
+    families on every slice at `core_size`; every family at each of its sizes on
+    `per_model` slices, the same for all families of a model (the models' first slices
+    spread evenly over the list, the others len/per_model apart)."""
     plan: dict[tuple, None] = {}
-    fams = families(models)
+    fams = [f for f in families(list(matrix.models)) if matrix.two_fixed or (f.lobes, f.combination) != (2, "Fixed")]
     for family in fams:
         if family.core:
             for s in slices:
-                plan[(s, family, None)] = None
-    stride = max(1, len(slices) // max(1, per_family))
+                plan[(s, family, matrix.core_size)] = None
+    stride = max(1, len(slices) // max(1, matrix.per_model))
     model_order = list(dict.fromkeys(f.model for f in fams))
     for family in fams:  # a model's families share slices: its whole story on one material
         first = model_order.index(family.model) * len(slices) // len(model_order)
-        chosen = {slices[(first + j * stride) % len(slices)] for j in range(min(per_family, len(slices)))}
+        chosen = {slices[(first + j * stride) % len(slices)] for j in range(min(matrix.per_model, len(slices)))}
         for s in sorted(chosen):
-            for size in (*sizes, None) if sampled_on_all else sizes:
+            for size in matrix.sizes if family.combination == "Linear" else matrix.fixed_sizes:
                 plan[(s, family, size)] = None
     return list(plan)
 
 
-def _slices(context: StudyContext) -> dict[str, str]:
+def shared_slices(context: StudyContext) -> dict[str, str]:
     """Material name → slice path of the shared MERL slices (quick: a few)."""
     from brdflab.io.resources import shared_data_dir
 
@@ -130,23 +145,17 @@ def measure(context: StudyContext) -> dict:
     if source is not None:
         key = register_source("current source", source)
         slices = {getattr(source, "name", None) or "current source": key}
-        models, sizes, per_family = list(SCOPED_MODELS[:2] if context.quick else SCOPED_MODELS), SCOPED_SIZES, 1
+        matrix = SCOPED_QUICK if context.quick else SCOPED
         workers = 1  # in memory: this process only
     else:
-        slices = _slices(context)
-        models = list(QUICK_MODELS) if context.quick else model_names()
-        sizes = QUICK_SIZES if context.quick else SIZES
-        per_family = 1 if context.quick else PER_FAMILY
+        slices = shared_slices(context)
+        matrix = QUICK if context.quick else FULL
         workers = core_count()
-    # quick: the non-core families on subsets only (a Fixed two-lobe fit on all samples alone
-    # takes 10–50 s); a scoped run fits one source, where all-sample fits are the point
-    plan = design(list(slices), models, sizes, per_family, sampled_on_all=not context.quick or source is not None)
-    if source is not None:  # one source: Fixed only with one lobe, to stay short
-        plan = [p for p in plan if p[1].combination == "Linear" or p[1].lobes <= 1]
+    plan = design(list(slices), matrix)
     clock = "wall" if workers == 1 else "cpu"
     jobs = [FitJob(slices[s], f.lobe_names, f.combination, size, clock=clock,
                    tag={"material": s, "model": f.model, "lobes_count": f.lobes, "family": f.label,
-                        "size": size, "core": f.core and size is None})
+                        "size": size, "core": f.core and size == matrix.core_size})
             for s, f, size in plan]
     jobs.sort(key=_expected_cost, reverse=True)
     started = time.time()
@@ -157,8 +166,10 @@ def measure(context: StudyContext) -> dict:
             context.progress(f"fitting: {done}/{total} fits, {time.time() - started:.0f} s")
 
     rows = run_jobs(run_job, jobs, workers, progress, context.cancelled)
-    return {**summarise(rows), "metric": "Ngan", "workers": workers, "clock": clock, "materials": list(slices), "models": models,
-            "sizes": list(sizes), "per_family": per_family, "fits_planned": len(jobs), "fits_done": len(rows),
+    return {**summarise(rows, matrix.core_size), "metric": "Ngan", "workers": workers, "clock": clock,
+            "materials": list(slices), "models": list(matrix.models), "core_size": matrix.core_size,
+            "sizes": list(matrix.sizes), "fixed_sizes": list(matrix.fixed_sizes), "per_model": matrix.per_model,
+            "fits_planned": len(jobs), "fits_done": len(rows),
             "wall_s": time.time() - started, "load_average": {"before": load_before, "after": _load_average()},
             "rows": rows}
 

@@ -1,7 +1,7 @@
 """Charts and summaries of the `fitting` study part, from its rows only.
 
 Errors are pooled over materials relative to each material's best core fit (one lobe,
-Linear, all samples: fitted on every material), so a material with a large error (a
+Linear, on the core sample set: fitted on every material), so a material with a large error (a
 metal) and one with a small error (a fabric) weigh the same.
 """
 
@@ -39,12 +39,12 @@ def with_relative_error(rows: list[dict]) -> list[dict]:
     return [{**r, "relative": r["error"] / max(reference[r["material"]], 1e-300)} for r in rows]
 
 
-def family_summary(rows: list[dict]) -> list[dict]:
-    """Per family, over the materials it was fitted on with all samples: the median and
-    the range of the relative error and of the time."""
+def family_summary(rows: list[dict], size: int | None) -> list[dict]:
+    """Per family, over the materials it was fitted on with `size` samples (None: all):
+    the median and the range of the relative error and of the time."""
     groups = defaultdict(list)
     for r in with_relative_error(rows):
-        if r["size"] is None:
+        if r["size"] == size:
             groups[(r["family"], r["model"], r["lobes_count"], r["combination"])].append(r)
     out = []
     for (family, model, lobes, combination), rs in groups.items():
@@ -189,7 +189,7 @@ def draw_materials(rows: list[dict], out_dir: Path, fronts: dict, time_label: st
 
 
 def draw_pooled(rows: list[dict], out_dir: Path, summary: list[dict], subsets: list[dict], gains: list[dict],
-                time_label: str) -> str:
+                time_label: str, core_size: int | None) -> str:
     plt = pyplot()
     colors = _colors({r["model"] for r in rows})
     fig, (a, b, c) = plt.subplots(1, 3, figsize=(17, 5.8), dpi=100, gridspec_kw={"width_ratios": [1.6, 1, 1.2]})
@@ -208,8 +208,9 @@ def draw_pooled(rows: list[dict], out_dir: Path, summary: list[dict], subsets: l
     a.plot(cost[e], err[e], "*", color="red", ms=15, mec="black", mew=0.5)
     a.set_xscale("log")
     a.set_yscale("log")
-    a.set_xlabel(f"{time_label} on all samples: median, bar = range over materials")
-    a.set_ylabel("error / the material's best one-lobe Linear error")
+    fitted = "all samples" if core_size is None else f"{core_size:,} samples"
+    a.set_xlabel(f"{time_label}, fitted on {fitted}: median, bar = range over materials")
+    a.set_ylabel("error on all samples / the material's best core error")
     a.set_title("All materials pooled (median and range per configuration)", fontsize=10)
     a.grid(True, which="both", alpha=0.2)
 
@@ -254,12 +255,13 @@ def draw_pooled(rows: list[dict], out_dir: Path, summary: list[dict], subsets: l
     return save_figure(fig, out_dir / "fitting_pareto_pooled.png")
 
 
-def summarise(rows: list[dict]) -> dict:
-    """Everything the charts and docs read, computed from the rows."""
+def summarise(rows: list[dict], core_size: int | None) -> dict:
+    """Everything the charts and docs read, computed from the rows; families are pooled
+    at the core fits' sample set (the one every material has)."""
     if not rows:
         return {"fronts": {}, "families": [], "subsets": [], "gains": []}
-    return {"fronts": material_fronts(rows), "families": family_summary(rows), "subsets": subset_effect(rows),
-            "gains": richer_gains(rows)}
+    return {"fronts": material_fronts(rows), "families": family_summary(rows, core_size),
+            "subsets": subset_effect(rows), "gains": richer_gains(rows)}
 
 
 def draw(numbers: dict, out_dir: Path) -> list[str]:
@@ -269,5 +271,6 @@ def draw(numbers: dict, out_dir: Path) -> list[str]:
         return []
     label = TIME_LABELS[numbers["clock"]]
     files = draw_materials(rows, out_dir, numbers["fronts"], label)
-    files.append(draw_pooled(rows, out_dir, numbers["families"], numbers["subsets"], numbers["gains"], label))
+    files.append(draw_pooled(rows, out_dir, numbers["families"], numbers["subsets"], numbers["gains"], label,
+                             numbers["core_size"]))
     return files

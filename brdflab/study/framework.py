@@ -25,7 +25,7 @@ from brdflab.errors import BRDFLabError
 Progress = Callable[[str], None]
 
 # the modules that define parts, in the order a study runs them
-PART_MODULES = ("brdflab.study.viewer", "brdflab.study.fitting")
+PART_MODULES = ("brdflab.study.viewer", "brdflab.study.fitting", "brdflab.study.stability")
 
 
 def quiet(message: str) -> None:
