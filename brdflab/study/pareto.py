@@ -22,11 +22,11 @@ def pareto_front(cost, error) -> np.ndarray:
 
 
 def enough_point(cost, error, tolerance: float = 0.05) -> int:
-    """Index of the cheapest point whose error is within `tolerance` (relative) of the
-    lowest error: where paying more stops paying."""
+    """Index of the cheapest point (of equally cheap ones, the most accurate) whose error
+    is within `tolerance` (relative) of the lowest error: where paying more stops paying."""
     cost, error = np.asarray(cost, float), np.asarray(error, float)
     good = np.flatnonzero(error <= (1.0 + tolerance) * error.min())
-    return int(good[np.argmin(cost[good])])
+    return int(good[np.lexsort((error[good], cost[good]))[0]])
 
 
 def gain(simpler: float, richer: float) -> float:
