@@ -90,8 +90,9 @@ def test_the_stability_fraction_on_a_synthetic_cell():
     assert cell["median_over_best"] == pytest.approx((1.009 + 1.02) / 2)
     assert cell["default_reaches"] and cell["fitter_reaches"]
     assert (cell["missed"], cell["missed_on_bound"]) == (3, 2)
-    missing = cell_summary([2.0, 1.5, 1.0], ["default", "restart", "random"], [False] * 3)
+    missing = cell_summary([2.0, None, 1.0], ["default", "restart", "random"], [False] * 3)
     assert not missing["fitter_reaches"] and missing["fraction_within"] == pytest.approx(1 / 3)
+    assert missing["failed"] == 1 and missing["worst_over_best"] == 2.0 and missing["median_over_best"] == 2.0
 
 
 def test_the_starts_are_the_default_the_restarts_and_random_ones_in_bounds(rng):

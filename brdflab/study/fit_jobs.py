@@ -15,6 +15,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from brdflab.errors import BRDFLabError
 from brdflab.fitting.diagnosis import bound_warnings
 from brdflab.fitting.lm import FitOptions, fit, free_blocks, material_from_lobes
 from brdflab.fitting.metrics import metric_errors
@@ -84,7 +85,8 @@ def parameter_count(material: AnalyticMaterial) -> int:
 
 def run_job(job: FitJob) -> dict:
     """Fit, and the row: the fit's time, its error on the samples it fitted, and (if
-    `score_all`) the error of the result on every sample of the source.
+    `score_all`) the error of the result on every sample of the source. A fit that
+    cannot run (BRDFLabError) gives a row with status "failed: …" and no errors.
 
     `seconds` is the fit's CPU time (`clock` "cpu"): the fit is single-threaded in a study
     worker (one BLAS thread), so on an idle core it equals the wall time, and unlike the
@@ -97,7 +99,13 @@ def run_job(job: FitJob) -> dict:
     options = FitOptions(metric=METRIC, restarts=job.restarts, coarse_size=60_000 if job.coarse else 0,
                          diagnose=False)
     t0, c0 = time.perf_counter(), time.process_time()
-    result = fit(start, samples, options)
+    try:
+        result = fit(start, samples, options)
+    except BRDFLabError as e:  # e.g. a random start where the lobe is not finite: LM cannot begin
+        return {**job.tag, "lobes": "+".join(["Lambertian", *job.lobes]), "combination": job.combination,
+                "samples": int(samples.size), "seconds": time.process_time() - c0,
+                "wall_seconds": time.perf_counter() - t0, "error_fitted": None, "error": None,
+                "iterations": 0, "status": f"failed: {e}", "on_bound": False}
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     row = {**job.tag, "lobes": "+".join(["Lambertian", *job.lobes]), "combination": job.combination,
            "samples": int(samples.size), "seconds": cpu if job.clock == "cpu" else wall, "wall_seconds": wall, "error_fitted": result.error,

@@ -167,11 +167,12 @@ def measure(context: StudyContext) -> dict:
         if done % max(1, total // 20) == 0 or done == total:
             context.progress(f"fitting: {done}/{total} fits, {time.time() - started:.0f} s")
 
-    rows = run_jobs(run_job, jobs, workers, progress, context.cancelled)
-    return {**summarise(rows, matrix.core_size), "metric": "Ngan", "workers": workers, "clock": clock,
+    done = run_jobs(run_job, jobs, workers, progress, context.cancelled)
+    rows = [r for r in done if r["error"] is not None]
+    return {**summarise(rows, matrix.core_size), "failed": [r for r in done if r["error"] is None], "metric": "Ngan", "workers": workers, "clock": clock,
             "materials": list(slices), "models": list(matrix.models), "core_size": matrix.core_size,
             "sizes": list(matrix.sizes), "fixed_sizes": list(matrix.fixed_sizes), "per_model": matrix.per_model,
-            "fits_planned": len(jobs), "fits_done": len(rows),
+            "fits_planned": len(jobs), "fits_done": len(done),
             "wall_s": time.time() - started, "load_average": {"before": load_before, "after": _load_average()},
             "rows": rows}
 

@@ -49,17 +49,21 @@ def starts_of(model_name: str, random_starts: int, rng: np.random.Generator) -> 
     return starts + [("random", random_start(model, rng)) for _ in range(random_starts)]
 
 
-def cell_summary(errors: np.ndarray, kinds: list[str], on_bound: np.ndarray) -> dict:
-    """The numbers of one (material, model) cell from the errors its starts reached."""
-    errors = np.asarray(errors, float)
-    best = float(errors.min())
+def cell_summary(errors: list, kinds: list[str], on_bound: list[bool]) -> dict:
+    """The numbers of one (material, model) cell from the errors its starts reached (None:
+    the fit could not run from that start; it counts as a miss)."""
+    errors = np.array([np.inf if e is None else e for e in errors], float)
+    finite = errors[np.isfinite(errors)]
+    best = float(finite.min()) if finite.size else np.inf
     reached = errors <= (1.0 + WITHIN) * best
     own = np.array([k in ("default", "restart") for k in kinds])
     missed = ~reached
-    return {"starts": int(errors.size), "best": best, "fraction_within": float(reached.mean()),
+    median = float(np.median(errors))
+    ratio = lambda x: float(x / best) if np.isfinite(x) and 0 < best < np.inf else None  # noqa: E731
+    return {"starts": int(errors.size), "failed": int(errors.size - finite.size),
+            "best": best if finite.size else None, "fraction_within": float(reached.mean()),
             "random_fraction_within": float(reached[~own].mean()) if (~own).any() else None,
-            "median_over_best": float(np.median(errors) / best) if best > 0 else 1.0,
-            "worst_over_best": float(errors.max() / best) if best > 0 else 1.0,
+            "median_over_best": ratio(median), "worst_over_best": ratio(finite.max()) if finite.size else None,
             "default_reaches": bool(reached[0]), "fitter_reaches": bool(reached[own].any()),
             "missed": int(missed.sum()), "missed_on_bound": int((missed & np.asarray(on_bound, bool)).sum())}
 
@@ -134,7 +138,8 @@ def caption(cells: list[dict]) -> str:
 def _grid(cells: list[dict], key: str, materials: list[str], models: list[str]) -> np.ndarray:
     grid = np.full((len(models), len(materials)), np.nan)
     for c in cells:
-        grid[models.index(c["model"]), materials.index(c["material"])] = c[key]
+        if c[key] is not None:
+            grid[models.index(c["model"]), materials.index(c["material"])] = c[key]
     return grid
 
 
