@@ -16,7 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.fitting.diagnosis import bound_warnings
+from brdflab.fitting.diagnosis import at_bound
 from brdflab.fitting.lm import FitOptions, fit, free_blocks, material_from_lobes
 from brdflab.fitting.metrics import metric_errors
 from brdflab.fitting.samples import SampleSet, samples_of
@@ -27,10 +27,10 @@ METRIC = "Ngan"
 
 @dataclass(frozen=True)
 class FitJob:
-    """`lobes` after Lambertian (empty: Lambertian alone); `size` None: all samples;
+    """`lobes` after a Lambertian (empty: the Lambertian alone); `size` None: all samples;
     `start`: parameter values for the non-Lambertian lobes (None: `material_from_lobes`'
-    start); `restarts`, `coarse`: the fitter's multi-start
-    stage and its coarse subset (the defaults of `brdflab fit`)."""
+    start); `restarts`, `coarse`: the fitter's multi-start stage and its coarse subset
+    (both on: what `brdflab fit` does)."""
 
     source: str  # a slice path (read in the worker) or a key of `register_source`
     lobes: tuple[str, ...]
@@ -83,6 +83,14 @@ def parameter_count(material: AnalyticMaterial) -> int:
     return nonlinear + (3 * len(material.lobes) if material.combination == "Linear" else 0)
 
 
+def bounds_hit(material: AnalyticMaterial) -> list[str]:
+    """'name side' of every lobe parameter that ended on a bound of its range (scale-
+    invariant directions excluded), as the fitter's diagnosis finds them."""
+    return [f"{p.name} {side}" for lobe in material.lobes for p in lobe.model.parameters
+            if p.name not in lobe.model.scale_invariant
+            and (side := at_bound(lobe.params[p.name], p.lower, p.upper, p.log)) is not None]
+
+
 def run_job(job: FitJob) -> dict:
     """Fit, and the row: the fit's time, its error on the samples it fitted, and (if
     `score_all`) the error of the result on every sample of the source. A fit that
@@ -105,12 +113,12 @@ def run_job(job: FitJob) -> dict:
         return {**job.tag, "lobes": "+".join(["Lambertian", *job.lobes]), "combination": job.combination,
                 "samples": int(samples.size), "seconds": time.process_time() - c0,
                 "wall_seconds": time.perf_counter() - t0, "error_fitted": None, "error": None,
-                "iterations": 0, "status": f"failed: {e}", "on_bound": False}
+                "iterations": 0, "status": f"failed: {e}", "on_bound": []}
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     row = {**job.tag, "lobes": "+".join(["Lambertian", *job.lobes]), "combination": job.combination,
            "samples": int(samples.size), "seconds": cpu if job.clock == "cpu" else wall, "wall_seconds": wall, "error_fitted": result.error,
            "iterations": result.iterations, "status": result.status, "parameters": parameter_count(start),
-           "on_bound": len(bound_warnings(result.material)) > 0, "fitted": result.material.describe()["lobes"]}
+           "on_bound": bounds_hit(result.material), "fitted": result.material.describe()["lobes"]}
     if job.score_all:
         error_all, zero_all = metric_errors([result.material, None], full, METRIC)
         row.update(error=error_all, zero_error=zero_all)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import textwrap
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
@@ -84,7 +84,8 @@ def measure(context: StudyContext) -> dict:
         [m for m in model_names() if m != "Lambertian"]
     clock = "wall" if workers == 1 else "cpu"
     jobs = [FitJob(path, (model,), "Linear", subset, seed=SEED, start=start, restarts=False, coarse=False,
-                   score_all=False, clock=clock, tag={"material": material, "model": model, "kind": kind})
+                   score_all=False, clock=clock,
+                   tag={"material": material, "model": model, "kind": kind, "start": dict(start)})
             for material, path in sources.items() for model in models
             for kind, start in starts_of(model, random_starts, rng)]
     started = time.time()
@@ -98,35 +99,66 @@ def measure(context: StudyContext) -> dict:
     for r in rows:
         cells[(r["material"], r["model"])].append(r)
     summary = [{"material": m, "model": mo, **cell_summary([r["error_fitted"] for r in rs], [r["kind"] for r in rs],
-                                                           [r["on_bound"] for r in rs])}
+                                                           [bool(r["on_bound"]) for r in rs])}
                for (m, mo), rs in cells.items()]
-    slim = [{k: r[k] for k in ("material", "model", "kind", "error_fitted", "seconds", "iterations", "status",
-                               "on_bound")} for r in rows]
+    slim = [{k: r[k] for k in ("material", "model", "kind", "start", "error_fitted", "seconds", "iterations",
+                               "status", "on_bound")} for r in rows]
     return {"subset": subset, "random_starts": random_starts, "within": WITHIN, "clock": clock,
             "materials": list(sources), "models": models, "wall_s": time.time() - started,
-            "cells": summary, "caption": caption(summary), "rows": slim}
+            "cells": summary, "caption": caption(summary, slim), "rows": slim}
 
 
-def caption(cells: list[dict]) -> str:
-    """Where LM breaks and why, in words, from the cells."""
+def _reached(rows: list[dict]) -> list[bool]:
+    """Whether each row's start reached within WITHIN of its cell's best."""
+    best: dict[tuple, float] = {}
+    for r in rows:
+        if r["error_fitted"] is not None:
+            key = (r["material"], r["model"])
+            best[key] = min(best.get(key, np.inf), r["error_fitted"])
+    return [r["error_fitted"] is not None and r["error_fitted"] <= (1 + WITHIN) * best[(r["material"], r["model"])]
+            for r in rows]
+
+
+def why(model: str, rows: list[dict], reached: list[bool]) -> str:
+    """Why the starts of one model miss: the bounds they end on, or (a scale-invariant
+    direction, Lafortune's C) the sign of the start's first direction component."""
+    mine = [(r, hit) for r, hit in zip(rows, reached) if r["model"] == model]
+    misses = [r for r, hit in mine if not hit]
+    if not misses:
+        return f"{model}: no start missed"
+    bounds = Counter(b for r in misses for b in r["on_bound"])
+    on_bound = sum(bool(r["on_bound"]) for r in misses)
+    text = f"{model}: {on_bound} of {len(misses)} misses end on a bound"
+    if bounds:
+        text += " (" + ", ".join(f"{b} ×{n}" for b, n in bounds.most_common(3)) + ")"
+    group = get_model(model).scale_invariant
+    if group and on_bound < len(misses) / 2:
+        axis = group[0]
+        split = {sign: [hit for r, hit in mine if (r["start"][axis] >= 0) == sign] for sign in (True, False)}
+        text += (f"; starts with {axis} ≥ 0 (a retro-reflective or vanishing lobe) reach the best in "
+                 f"{sum(split[True])} of {len(split[True])}, with {axis} < 0 in {sum(split[False])} of "
+                 f"{len(split[False])}: LM keeps the sign it starts with (the lobe is 0 between the two)")
+    defaults = [hit for r, hit in mine if r["kind"] == "default"]
+    return text + f"; the default start reaches it on {sum(defaults)} of {len(defaults)} materials"
+
+
+def caption(cells: list[dict], rows: list[dict]) -> str:
+    """Where LM breaks and why, in words, from the cells and their fits."""
     if not cells:
         return "no fits finished"
     by_model, by_material = defaultdict(list), defaultdict(list)
     for c in cells:
         by_model[c["model"]].append(c["fraction_within"])
         by_material[c["material"]].append(c["fraction_within"])
-    worst_models = sorted(by_model, key=lambda m: np.mean(by_model[m]))[:3]
+    worst_models = sorted(by_model, key=lambda m: np.mean(by_model[m]))[:4]
     worst_materials = sorted(by_material, key=lambda m: np.mean(by_material[m]))[:3]
-    missed = sum(c["missed"] for c in cells)
-    on_bound = sum(c["missed_on_bound"] for c in cells)
+    reached = _reached(rows)
     fitter_misses = [f"{c['model']} on {c['material']}" for c in cells if not c["fitter_reaches"]]
     text = (f"LM breaks most for {', '.join(f'{m} ({np.mean(by_model[m]):.0%})' for m in worst_models)} "
             f"and on {', '.join(f'{m} ({np.mean(by_material[m]):.0%})' for m in worst_materials)} "
-            f"(mean fraction of starts within {WITHIN:.0%} of the best). "
-            f"{on_bound} of the {missed} starts that missed ended with a parameter on a bound of its range "
-            "(a sharp lobe's exponent or roughness driven to its limit, Fresnel F0 at 1: see docs/fitting.md, "
-            "'Exponent on a bound' and 'Cook–Torrance against Lafortune'); the rest stopped in another local "
-            "minimum. ")
+            f"(mean fraction of starts within {WITHIN:.0%} of the best). Why — "
+            + ". ".join(why(m, rows, reached) for m in worst_models)
+            + ". Bounds: see docs/fitting.md ('Exponent on a bound', F0 = 1 in 'Cook–Torrance against Lafortune'). ")
     if fitter_misses:
         text += (f"The fitter's own default + restarts miss the best in {len(fitter_misses)} of {len(cells)} "
                  f"cells: {', '.join(fitter_misses[:6])}{' …' if len(fitter_misses) > 6 else ''}.")
@@ -177,8 +209,9 @@ def draw(numbers: dict, out_dir: Path) -> list[str]:
     axes[0].set_xlabel("red frame: the fitter's default + restarts miss the best", fontsize=7, color="red")
     fig.suptitle(f"LM stability: Lambertian + one lobe (Linear, Ngan) from the default, the restarts and "
                  f"{numbers['random_starts']} random starts, {numbers['subset']:,} samples", fontsize=10)
-    fig.text(0.01, 0.01, "\n".join(textwrap.wrap(numbers["caption"], int(width * 15))), fontsize=7.5, va="bottom")
-    fig.tight_layout(rect=(0, 0.14, 1, 0.96))
+    lines = textwrap.wrap(numbers["caption"], int(width * 14))
+    fig.text(0.01, 0.01, "\n".join(lines), fontsize=7.5, va="bottom")
+    fig.tight_layout(rect=(0, (0.16 * len(lines) + 0.2) / fig.get_figheight(), 1, 0.96))
     return [save_figure(fig, out_dir / "stability_lm.png")]
 
 
