@@ -216,6 +216,7 @@ def draw(numbers: dict, out_dir: Path) -> list[str]:
 
 
 register(Part("stability", "stability: LM over material × model × start (default, restarts, random)", measure, draw,
-              lesson="Most models reach their best from most starts; LM breaks where a lobe parameter runs to a "
-                     "bound or the error surface has several minima (anisotropic and multi-parameter models), and "
-                     "the model-aware restarts are what make the default fit reach the best there."))
+              lesson="Ward, Phong, Oren–Nayar and the diffuse lobes reach their best from every start; "
+                     "Lafortune from about half (a start whose lobe points back, Cxy ≥ 0, stays there and the lobe "
+                     "dies), Schwenk and Strauss from 40–60 % (parameters run onto their bounds). The model-aware "
+                     "restarts are what make the default fit reach the best (docs/study.md)."))
