@@ -1,0 +1,181 @@
+"""Study part `fitting`: the fit's error against its wall time, for every registry model
+with one and two lobes (after a Lambertian), Linear and Fixed, fitted on all samples and
+on stratified subsets, on the shared MERL slices.
+
+The error is always the Ngan metric of the result on ALL samples of the source, whatever
+the fit saw; the time is the fit's wall time (the fitter's defaults: restarts on a
+60,000-sample coarse subset, then a polish on the fitted set).
+
+The full matrix (16 models × 2 lobe counts × 2 combinations × 5 sample sets × 31 slices,
+about 9,600 fits of 0.05–200 s) does not fit a 30–40 min run on two shared cores, so a run
+fits a `Matrix` in two tiers (`design`):
+- core: on every slice, every model with one lobe (and the Lambertian alone), Linear,
+  on a `core_size` subset — every model on every material, the reference of the pooled
+  chart (the subset chart shows what fitting a subset costs in error);
+- sampled: every family (model × lobe count × combination) at every size of `sizes`
+  (Linear) or `fixed_sizes` (Fixed), all samples included, on `per_model` slices; all
+  families of a model share their slices (a material's chart shows that model's whole
+  story: lobes, combination, subset curve), and the models' slices spread evenly over
+  the sorted list.
+A scoped run (the GUI's current source) fits a small matrix on that source alone.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from brdflab.errors import BRDFLabError
+from brdflab.models import model_names
+from brdflab.study.fit_jobs import FitJob, register_source, run_job
+from brdflab.study.fitting_charts import LESSON, draw, summarise
+from brdflab.study.framework import Part, StudyContext, register
+from brdflab.study.workers import core_count, run_jobs
+
+QUICK_SLICES = ("blue-fabric", "nickel")
+
+
+@dataclass(frozen=True)
+class Matrix:
+    """What one run fits (sizes: samples fitted, None for all)."""
+
+    models: tuple[str, ...]
+    core_size: int | None
+    sizes: tuple[int | None, ...]  # the sampled tier's Linear families
+    fixed_sizes: tuple[int | None, ...]  # its Fixed families
+    per_model: int = 1
+    two_fixed: bool = True  # Fixed with two lobes (3 × 2 per-channel lobes)
+
+
+# the full run, sized for ≈ 25 CPU-min (measured: a core fit on 20 k samples costs 0.1–2 s,
+# scoring it on all 1.1 M samples 0.3 s; a Fixed fit on all samples 5–60 s, a two-lobe one
+# up to 200 s): ≈ 500 core fits, then per model 4 Linear sizes (all samples included) and
+# 3 Fixed sizes (subsets only: all-sample Fixed fits would double the run)
+FULL = Matrix(tuple(model_names()), 20_000, (5_000, 20_000, 50_000, None), (5_000, 20_000, 50_000))
+QUICK = Matrix(("Lambertian", "BlinnPhong", "Ward"), 10_000, (2_000, 10_000, None), (2_000, 10_000))
+SCOPED = Matrix(("Lambertian", "BlinnPhong", "CookTorrance", "Ward", "LafortuneIso"), None,
+                (5_000, 50_000, None), (50_000,), two_fixed=False)
+SCOPED_QUICK = Matrix(("Lambertian", "BlinnPhong", "CookTorrance"), None, (5_000, None), (20_000,), two_fixed=False)
+
+
+@dataclass(frozen=True)
+class Family:
+    """A lobe configuration: `model` after a Lambertian `lobes` times (0: Lambertian alone)."""
+
+    model: str
+    lobes: int
+    combination: str
+
+    @property
+    def lobe_names(self) -> tuple[str, ...]:
+        return (self.model,) * self.lobes
+
+    @property
+    def core(self) -> bool:
+        """Fitted on every material."""
+        return self.lobes <= 1 and self.combination == "Linear"
+
+    @property
+    def label(self) -> str:
+        name = "Lambertian" if self.lobes == 0 else f"{self.lobes}×{self.model}"
+        return f"{name} {self.combination}"
+
+
+def families(models: list[str]) -> list[Family]:
+    """The Lambertian alone, then every model with one and two lobes, Linear and Fixed."""
+    out = [Family("Lambertian", 0, c) for c in ("Linear", "Fixed")]
+    return out + [Family(m, n, c) for m in models if m != "Lambertian" for n in (1, 2) for c in ("Linear", "Fixed")]
+
+
+def design(slices: list[str], matrix: Matrix) -> list[tuple[str, Family, int | None]]:
+    """(slice, family, size or None for all samples) of every fit, without repeats: core
+    families on every slice at `core_size`; every family at each of its sizes on
+    `per_model` slices, the same for all families of a model (the models' first slices
+    spread evenly over the list, the others len/per_model apart)."""
+    plan: dict[tuple, None] = {}
+    fams = [f for f in families(list(matrix.models)) if matrix.two_fixed or (f.lobes, f.combination) != (2, "Fixed")]
+    for family in fams:
+        if family.core:
+            for s in slices:
+                plan[(s, family, matrix.core_size)] = None
+    stride = max(1, len(slices) // max(1, matrix.per_model))
+    model_order = list(dict.fromkeys(f.model for f in fams))
+    for family in fams:  # a model's families share slices: its whole story on one material
+        first = model_order.index(family.model) * len(slices) // len(model_order)
+        chosen = {slices[(first + j * stride) % len(slices)] for j in range(min(matrix.per_model, len(slices)))}
+        for s in sorted(chosen):
+            for size in matrix.sizes if family.combination == "Linear" else matrix.fixed_sizes:
+                plan[(s, family, size)] = None
+    return list(plan)
+
+
+def shared_slices(context: StudyContext) -> dict[str, str]:
+    """Material name → slice path of the shared MERL slices (quick: a few)."""
+    from brdflab.io.resources import shared_data_dir
+
+    data = shared_data_dir()
+    folder = data / "merl_slices" if data is not None else None
+    if folder is None or not folder.is_dir():
+        raise BRDFLabError("the fitting study needs the shared MERL slices: set BRDFLAB_SHARED, "
+                           "or put shared/data next to the checkout (or scope it to a source)")
+    paths = {p.stem: str(p) for p in sorted(folder.glob("*.slice"))}
+    if context.quick:
+        paths = {k: paths[k] for k in QUICK_SLICES if k in paths}
+    if not paths:
+        raise BRDFLabError(f"no MERL slices in {folder}")
+    return paths
+
+
+def _expected_cost(job: FitJob) -> float:
+    """A rough relative cost, to start the longest fits first (the pool then balances)."""
+    samples = 1_100_000 if job.size is None else job.size
+    fixed = 3 if job.combination == "Fixed" else 1
+    return (len(job.lobes) + 1) * fixed * (60_000 + samples)
+
+
+def _load_average() -> float | None:
+    try:
+        return round(os.getloadavg()[0], 2)
+    except OSError:
+        return None
+
+
+def measure(context: StudyContext) -> dict:
+    source = context.source
+    if source is not None:
+        key = register_source("current source", source)
+        slices = {getattr(source, "name", None) or "current source": key}
+        matrix = SCOPED_QUICK if context.quick else SCOPED
+        workers = 1  # in memory: this process only
+    else:
+        slices = shared_slices(context)
+        matrix = QUICK if context.quick else FULL
+        workers = core_count()
+    plan = design(list(slices), matrix)
+    clock = "wall" if workers == 1 else "cpu"
+    jobs = [FitJob(slices[s], f.lobe_names, f.combination, size, clock=clock,
+                   tag={"material": s, "model": f.model, "lobes_count": f.lobes, "family": f.label,
+                        "size": size, "core": f.core and size == matrix.core_size})
+            for s, f, size in plan]
+    jobs.sort(key=_expected_cost, reverse=True)
+    started = time.time()
+    load_before = _load_average()
+
+    def progress(done: int, total: int) -> None:
+        if done % max(1, total // 20) == 0 or done == total:
+            context.progress(f"fitting: {done}/{total} fits, {time.time() - started:.0f} s")
+
+    done = run_jobs(run_job, jobs, workers, progress, context.cancelled)
+    rows = [r for r in done if r["error"] is not None]
+    return {**summarise(rows, matrix.core_size), "failed": [r for r in done if r["error"] is None], "metric": "Ngan", "workers": workers, "clock": clock,
+            "materials": list(slices), "models": list(matrix.models), "core_size": matrix.core_size,
+            "sizes": list(matrix.sizes), "fixed_sizes": list(matrix.fixed_sizes), "per_model": matrix.per_model,
+            "fits_planned": len(jobs), "fits_done": len(done),
+            "wall_s": time.time() - started, "load_average": {"before": load_before, "after": _load_average()},
+            "rows": rows}
+
+
+register(Part("fitting", "fitting: error on all samples against fit time, per model, lobes, combination and subset",
+              measure, draw, lesson=LESSON))

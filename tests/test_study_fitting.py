@@ -1,0 +1,146 @@
+"""`brdflab study` parts `fitting` (error against time) and `stability` (LM over starts)."""
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from brdflab.cli import main
+from brdflab.fitting.metrics import grid_error, metric_error
+from brdflab.fitting.samples import samples_of
+from brdflab.models import model_names
+from brdflab.sources.measured import read_slice
+from brdflab.study import fitting
+from brdflab.study.fit_jobs import FitJob, material_of, run_job
+from brdflab.study.framework import StudyContext, check_finite
+from brdflab.study.pareto import enough_point, pareto_front
+from brdflab.study.stability import cell_summary, starts_of
+
+from conftest import DATA, needs_shared
+
+BLUE_FABRIC = DATA / "merl_slices" / "blue-fabric.slice"
+
+
+def test_the_pareto_front_keeps_only_undominated_points():
+    cost = [1.0, 2.0, 2.0, 3.0, 4.0, 5.0, 0.5]
+    error = [5.0, 3.0, 2.5, 4.0, 1.0, 1.0, 9.0]
+    # 2 beats 1 at the same cost; 3 is dominated by 2; 5 ties 4 in error at a higher cost
+    assert pareto_front(cost, error).tolist() == [6, 0, 2, 4]
+    # within 5 % of the best error (1.0): 4 and 5; the cheaper is where more stops paying
+    assert enough_point(cost, error, 0.05) == 4
+    assert enough_point(cost, error, 2.0) == 2  # 2.5 ≤ 3 × 1.0, cheaper than 4
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.01, 100), st.floats(0.001, 10)), min_size=1, max_size=30))
+def test_no_point_dominates_a_front_point(points):
+    cost, error = map(np.array, zip(*points))
+    front = pareto_front(cost, error)
+    for i in front:
+        dominated = (cost <= cost[i]) & (error <= error[i]) & ((cost < cost[i]) | (error < error[i]))
+        assert not dominated.any()
+    off = np.setdiff1d(np.arange(len(cost)), front)
+    for i in off:  # every other point is dominated by (or equal to) a front point
+        assert np.any((cost[front] <= cost[i]) & (error[front] <= error[i]))
+
+
+def test_the_full_design_covers_every_slice_and_model():
+    slices = [f"m{k:02d}" for k in range(31)]
+    plan = fitting.design(slices, fitting.FULL)
+    assert len(plan) == len(set(plan))
+    core = {(s, f.model) for s, f, size in plan if f.core and size == fitting.FULL.core_size}
+    assert core == {(s, m) for s in slices for m in model_names()}
+    # every family of every model, at every size of its combination, on one slice
+    sampled = {(f, size) for _, f, size in plan}
+    for family in fitting.families(model_names()):
+        sizes = fitting.FULL.sizes if family.combination == "Linear" else fitting.FULL.fixed_sizes
+        assert {(family, size) for size in sizes} <= sampled
+    # a model's families share one slice, and the models spread over the list
+    homes = {m: {s for s, f, size in plan if f.model == m and size is None} for m in model_names()}
+    assert all(len(h) == 1 for h in homes.values())
+    assert len(set.union(*homes.values())) == len(model_names())
+
+
+@needs_shared("merl_slices", "blue-fabric.slice")
+def test_the_error_is_on_all_samples_not_the_subset():
+    """A fit on 100 samples of a diffuse material: its row's error is the result's error
+    on every sample — recomputed here by the fitter's measure and, independently, by
+    BRDFLab's 16 × 16 × 64 grid (which agrees within 2 % on diffuse materials) — and not
+    the subset's own error, which is 20 % higher."""
+    row = run_job(FitJob(str(BLUE_FABRIC), ("BlinnPhong",), size=100))
+    table = read_slice(BLUE_FABRIC)
+    material = material_of(row)
+    assert row["samples"] == 100
+    assert metric_error(material, samples_of(table), "Ngan") == pytest.approx(row["error"], rel=1e-9)
+    assert grid_error(table, material) == pytest.approx(row["error"], rel=0.02)
+    assert abs(row["error_fitted"] / row["error"] - 1) > 0.1
+    assert metric_error(material, samples_of(table).subset(100, seed=1), "Ngan") == pytest.approx(row["error_fitted"])
+
+
+def test_the_stability_fraction_on_a_synthetic_cell():
+    errors = [1.004, 1.5, 1.0, 1.02, 3.0, 1.009]
+    kinds = ["default", "restart", "random", "random", "random", "random"]
+    cell = cell_summary(errors, kinds, on_bound=[False, True, False, False, True, False])
+    assert cell["best"] == 1.0
+    assert cell["fraction_within"] == pytest.approx(3 / 6)  # 1.0, 1.004, 1.009 are within 1 %
+    assert cell["random_fraction_within"] == pytest.approx(2 / 4)
+    assert cell["worst_over_best"] == pytest.approx(3.0)
+    assert cell["median_over_best"] == pytest.approx((1.009 + 1.02) / 2)
+    assert cell["default_reaches"] and cell["fitter_reaches"]
+    assert (cell["missed"], cell["missed_on_bound"]) == (3, 2)
+    missing = cell_summary([2.0, None, 1.0], ["default", "restart", "random"], [False] * 3)
+    assert not missing["fitter_reaches"] and missing["fraction_within"] == pytest.approx(1 / 3)
+    assert missing["failed"] == 1 and missing["worst_over_best"] == 2.0 and missing["median_over_best"] == 2.0
+
+
+def test_the_starts_are_the_default_the_restarts_and_random_ones_in_bounds(rng):
+    from brdflab.models import get_model
+
+    for name in ("CookTorrance", "LafortuneIso", "Ward"):
+        model = get_model(name)
+        starts = starts_of(name, 20, rng)
+        kinds = [k for k, _ in starts]
+        assert kinds == ["default"] + ["restart"] * len(model.starts) + ["random"] * 20
+        for _, values in starts[-20:]:
+            for p in model.parameters:
+                assert p.lower <= dict(values)[p.name] <= p.upper
+
+
+@needs_shared("merl_slices", "nickel.slice")
+def test_study_quick_writes_every_chart_with_finite_numbers(tmp_path, capsys):
+    """Both parts as CI runs them: every chart written, every number finite, every model
+    of the quick matrix fitted on every quick slice."""
+    assert main(["study", "--quick", "--part", "fitting", "--part", "stability", "--out", str(tmp_path), "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert payload["charts"]["fitting"] == ["fitting_pareto_materials_1.png", "fitting_pareto_pooled.png"]
+    assert payload["charts"]["stability"] == ["stability_lm.png"]
+    for name in payload["files"][1:]:
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    study = json.loads((tmp_path / "study.json").read_text())
+    check_finite(study["parts"], "study")
+    fit = study["parts"]["fitting"]
+    assert fit["fits_done"] == fit["fits_planned"] > 0
+    assert {(r["material"], r["model"]) for r in fit["rows"] if r["core"]} == \
+        {(s, m) for s in fitting.QUICK_SLICES for m in fitting.QUICK.models}
+    assert all(r["seconds"] > 0 and 0 < r["error"] < r["zero_error"] for r in fit["rows"])
+    assert fit["subsets"] and fit["families"] and fit["gains"]
+    cells = study["parts"]["stability"]["cells"]
+    assert len(cells) == 2 * 3 and all(0 < c["fraction_within"] <= 1 for c in cells)
+    assert "LM breaks most" in study["parts"]["stability"]["caption"]
+
+
+@needs_shared("merl_slices", "blue-fabric.slice")
+def test_a_scoped_run_fits_the_current_source_in_this_process(tmp_path, monkeypatch):
+    """The GUI's current measured material, with a matrix made tiny for the test."""
+    monkeypatch.setattr(fitting, "SCOPED_QUICK", fitting.Matrix(("Lambertian", "BlinnPhong"), 2_000, (2_000,), (2_000,),
+                                                                two_fixed=False))
+    table = read_slice(BLUE_FABRIC)
+    numbers = fitting.measure(StudyContext(quick=True, source=table))
+    check_finite(numbers, "fitting")
+    assert numbers["materials"] == [table.name] and numbers["clock"] == "wall"
+    assert {(r["family"], r["size"]) for r in numbers["rows"]} == {
+        ("Lambertian Linear", 2000), ("Lambertian Fixed", 2000), ("1×BlinnPhong Linear", 2000),
+        ("2×BlinnPhong Linear", 2000), ("1×BlinnPhong Fixed", 2000)}
+    assert fitting.draw(numbers, tmp_path) == ["fitting_pareto_materials_1.png", "fitting_pareto_pooled.png"]
