@@ -51,3 +51,39 @@ def test_an_unknown_part_is_a_one_line_error(tmp_path, capsys):
     assert main(["study", "--part", "nope", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "unknown study part nope" in err and "viewer" in err
+
+
+def test_study_quick_runs_every_part_from_another_folder(tmp_path):
+    """What CI runs: `brdflab study --quick`, as a user would (a subprocess, another folder):
+    every part registered writes its charts, and every number in study.json is finite."""
+    import math
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from brdflab.study.framework import load_parts
+
+    out = tmp_path / "study"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    run = subprocess.run([sys.executable, "-m", "brdflab", "study", "--quick", "--out", str(out), "--json"],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-2000:]
+    payload = json.loads(run.stdout)
+    assert set(payload["charts"]) == set(load_parts())
+    for part, files in payload["charts"].items():
+        pngs = [f for f in files if f.endswith(".png")]
+        assert pngs, f"{part} wrote no chart"
+        for name in pngs:
+            assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    numbers = []
+    stack = [json.loads((out / "study.json").read_text())]
+    while stack:
+        value = stack.pop()
+        if isinstance(value, dict):
+            stack.extend(value.values())
+        elif isinstance(value, list):
+            stack.extend(value)
+        elif isinstance(value, float):
+            numbers.append(value)
+    assert len(numbers) > 100 and all(math.isfinite(v) for v in numbers)
