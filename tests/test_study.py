@@ -10,7 +10,7 @@ from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.render.lobe_view import LobeSettings
 from brdflab.study.framework import check_finite
-from brdflab.study.viewer import surface_error
+from brdflab.geometry.lobe_surface import auto_level, surface_error
 
 
 def test_a_non_finite_number_anywhere_is_refused():
@@ -23,7 +23,7 @@ def test_the_drawn_lobe_converges_to_the_exact_one():
     """A diffuse lobe is a sphere: flat triangles miss it by O(h²), a quarter per level. Its
     rim must not fold to the origin (a BRDF is 0 at z = 0 exactly; the rim sits above it)."""
     lambertian = AnalyticMaterial("d", "Linear", 3, [Lobe.create("Lambertian", [0.5] * 3)])
-    errors = [surface_error(lambertian, LobeSettings(transfer="linear"), level)[0] for level in (2, 3, 4)]
+    errors = [surface_error(lambertian, LobeSettings(transfer="linear").shape, level)[0] for level in (2, 3, 4)]
     assert errors[2] < 0.01
     assert 3.0 < errors[0] / errors[1] < 5.0 and 3.0 < errors[1] / errors[2] < 5.0
 
@@ -32,8 +32,24 @@ def test_a_sharp_lobe_needs_more_levels_than_a_broad_one():
     def glossy(n):
         return AnalyticMaterial("g", "Linear", 3, [Lobe.create("BlinnPhong", [0.5] * 3, Exponent=n)])
 
-    settings = LobeSettings()
-    assert surface_error(glossy(1000.0), settings, 4)[0] > 4 * surface_error(glossy(20.0), settings, 4)[0]
+    shape = LobeSettings().shape
+    assert surface_error(glossy(1000.0), shape, 4)[0] > 4 * surface_error(glossy(20.0), shape, 4)[0]
+
+
+def test_auto_subdivision_is_the_lowest_level_within_the_tolerance():
+    """Auto (issue 13): the lowest level whose drawn lobe stays within 1 % of the peak radius,
+    checked against the exhaustive sweep of every level; sharp lobes need more levels."""
+    from brdflab.geometry.lobe_surface import LEVELS
+
+    shape = LobeSettings().shape
+    for n in (20.0, 1000.0):
+        material = AnalyticMaterial("g", "Linear", 3, [Lobe.create("BlinnPhong", [0.5] * 3, Exponent=n)])
+        sweep = {level: surface_error(material, shape, level)[0] for level in LEVELS}
+        within = [level for level, error in sweep.items() if error <= 0.01]
+        assert auto_level([material], shape, 0.01) == (min(within), sweep[min(within)])
+    broad = AnalyticMaterial("g", "Linear", 3, [Lobe.create("BlinnPhong", [0.5] * 3, Exponent=20.0)])
+    sharp = AnalyticMaterial("g", "Linear", 3, [Lobe.create("BlinnPhong", [0.5] * 3, Exponent=1000.0)])
+    assert auto_level([broad], shape)[0] < auto_level([broad, sharp], shape)[0]  # the fit counts too
 
 
 def test_study_quick_writes_charts_and_finite_numbers(tmp_path, capsys):

@@ -26,8 +26,8 @@ from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.background import FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
-from brdflab.gui.panels import (SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel,
-                                XmlView, energy_summaries)
+from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls,
+                                PlotsPanel, XmlView, auto_level_job, energy_summaries)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
 
 LAYOUT_VERSION = 3  # 2: the lobe viewer became the central view; 3: the Charts dock
@@ -204,6 +204,10 @@ class MainWindow(QMainWindow):
         self._warnings: dict[str, str] = {}  # what is wrong, by topic, shown above the views
         self._fits_energy_job = LatestOnly(energy_summaries, self)
         self._fits_energy_job.done.connect(self._fits_energy_known)
+        self._auto_level_for = None  # what the auto subdivision was last computed for
+        self._auto_level_job = LatestOnly(auto_level_job, self)
+        self._auto_level_job.done.connect(self._auto_level_known)
+        self._auto_level_job.failed.connect(lambda m: self.lobe_controls.auto_level_note.setText(f"failed: {m}"))
 
         self._xml_timer = QTimer(self, singleShot=True, interval=150)
         self._xml_timer.timeout.connect(self._refresh_xml)
@@ -526,6 +530,7 @@ class MainWindow(QMainWindow):
                 v.set_fitted(None)
 
         self.lobe_view.when_ready(apply)
+        self._request_auto_level()
 
     def _push_object_source(self) -> None:
         shown = self.workspace.original()
@@ -555,6 +560,27 @@ class MainWindow(QMainWindow):
         self.lobe_controls.apply(self.lobe_view.viewer.settings)
         self.lobe_view.update()
         self._plot_timer.start()
+        self._request_auto_level()
+
+    def _request_auto_level(self) -> None:
+        """Auto subdivision: recompute the level when what is drawn changes (not when the
+        level itself does), in a worker process; the newest request wins."""
+        if not self.lobe_controls.auto_level.isChecked():
+            self._auto_level_for = None
+            return
+        sources = (self.workspace.original(), self._shown_fit_or_guess())
+        shape = self.lobe_view.viewer.settings.shape
+        key = (tuple(id(s) for s in sources), shape)
+        if key != self._auto_level_for:
+            self._auto_level_for = key
+            self.lobe_controls.auto_level_note.setText("checking…")
+            self._auto_level_job.request((sources, shape, AUTO_LEVEL_TOLERANCE))
+
+    def _auto_level_known(self, result: tuple[int, float]) -> None:
+        level, error = result
+        if self.lobe_controls.auto_level.isChecked():
+            self.lobe_controls.auto_level_note.setText(f"level {level}: {error:.1%} of the peak")
+            self.lobe_controls.level.setValue(level)
 
     def _drag_incident(self, theta: float, phi: float) -> None:
         self.lobe_controls.theta.set_value(theta)
@@ -770,6 +796,7 @@ class MainWindow(QMainWindow):
         self.plots.shutdown()
         self.charts.shutdown()
         self._fits_energy_job.shutdown()
+        self._auto_level_job.shutdown()
         self.object_view.shutdown()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState(LAYOUT_VERSION))

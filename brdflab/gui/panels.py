@@ -281,6 +281,17 @@ def energy_summaries(materials: list[AnalyticMaterial]) -> list:
     return [energy_summary(m) for m in materials]
 
 
+AUTO_LEVEL_TOLERANCE = 0.01  # of the lobe's peak radius
+
+
+def auto_level_job(job: tuple) -> tuple[int, float]:
+    """(sources, shape, tolerance) → geometry.lobe_surface.auto_level — run in a worker process."""
+    from brdflab.geometry.lobe_surface import auto_level
+
+    sources, shape, tolerance = job
+    return auto_level(sources, shape, tolerance)
+
+
 class LobeControls(QWidget):
     """θ/φ of the incident direction and how the lobe is drawn."""
 
@@ -296,6 +307,11 @@ class LobeControls(QWidget):
         self.channel.addItems(["luminance", "red", "green", "blue"])
         self.cosine = QCheckBox("× cos θo")
         self.level = QSpinBox(minimum=2, maximum=7, value=5)
+        self.auto_level = QCheckBox("auto")
+        self.auto_level.setToolTip(f"the lowest subdivision that draws every lobe within {AUTO_LEVEL_TOLERANCE:.0%} "
+                                   "of its peak radius (checked inside every triangle, in the background)")
+        self.auto_level_note = QLabel("")
+        self.auto_level_note.setStyleSheet("color: #707070")
         self.translucent = QCheckBox("translucent fit")
         self.translucent.setChecked(True)
         form = QFormLayout(self)
@@ -306,9 +322,12 @@ class LobeControls(QWidget):
             row.addWidget(w)
         form.addRow(row)
         row2 = QHBoxLayout()
-        for w in (QLabel("subdivision"), self.level, self.translucent):
+        for w in (QLabel("subdivision"), self.level, self.auto_level, self.auto_level_note, self.translucent):
             row2.addWidget(w)
         form.addRow(row2)
+        self.auto_level.toggled.connect(self.level.setDisabled)
+        self.auto_level.toggled.connect(lambda on: self.auto_level_note.setText("") if not on else None)
+        self.auto_level.toggled.connect(lambda _: self.changed.emit())
         for sig in (self.theta.edited, self.phi.edited):
             sig.connect(lambda _: self.changed.emit())
         for box in (self.transfer, self.channel):

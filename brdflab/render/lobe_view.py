@@ -14,13 +14,13 @@ import moderngl
 import numpy as np
 
 from brdflab.geometry.geodesic import geodesic_hemisphere
+from brdflab.geometry.lobe_surface import CHANNELS, LobeShape, lobe_radii
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.geometry.vec import spherical_to_cartesian
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.glsl import GLSL_VERSION, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 
 TRANSFERS = {"linear": 0, "cbrt": 1, "log": 2}
-CHANNELS = {"red": 0, "green": 1, "blue": 2, "luminance": 3}
 TEXTURE_GRID = (360, 90)  # φo × θo samples of non-analytic sources
 
 
@@ -39,6 +39,10 @@ class LobeSettings:
     @property
     def wi(self) -> np.ndarray:
         return spherical_to_cartesian(math.radians(self.theta_i), math.radians(self.phi_i))
+
+    @property
+    def shape(self) -> LobeShape:
+        return LobeShape(tuple(float(x) for x in self.wi), self.channel, self.cosine, self.transfer)
 
 
 @dataclass
@@ -197,7 +201,7 @@ class LobeViewer:
         peak = 0.0
         for layer in self._layers:
             if layer is not None:
-                r = lobe_radii(layer.source, self.settings, dirs)
+                r = lobe_radii(layer.source, self.settings.shape, dirs)
                 peak = max(peak, float(np.nanmax(r)) if r.size else 0.0)
         return 1.0 / peak if peak > 0 else 1.0
 
@@ -238,18 +242,6 @@ class LobeViewer:
             color.release()
             depth.release()
         return np.ascontiguousarray(img)
-
-
-def lobe_radii(source, settings: LobeSettings, wo: np.ndarray) -> np.ndarray:
-    """The lobe surface's radius along each direction wo (N, 3), before the gain: what
-    shaders/lobe_vertex.glsl computes per vertex (channel, cosine, transfer)."""
-    wi = np.broadcast_to(settings.wi, wo.shape)
-    f = np.asarray(source.evaluate(wi, wo), float)[:, :3]
-    if f.shape[1] == 1:
-        f = np.repeat(f, 3, axis=1)
-    v = f @ np.array([0.2126, 0.7152, 0.0722]) if settings.channel == "luminance" else f[:, CHANNELS[settings.channel]]
-    v = np.maximum(v, 0.0) * (np.maximum(wo[:, 2], 0.0) if settings.cosine else 1.0)
-    return {"linear": v, "cbrt": np.cbrt(v), "log": np.log1p(v)}[settings.transfer]
 
 
 # The lobe's frame has z = normal; on screen the normal points up (+Y): rotate z → y.

@@ -1,25 +1,17 @@
 """Study part `viewer`: the lobe viewer's frame time against its subdivision level, and the
-drawn surface's geometric error against the exact lobe.
-
-The viewer draws a geodesic hemisphere whose vertices sit at the lobe's radius; between
-vertices the surface is a flat triangle. Its error is measured inside every triangle: at
-barycentric points p = Σ bᵢ rᵢ dᵢ, the distance to the exact lobe point r(p̂) p̂ along the
-same direction, relative to the lobe's peak radius (the viewer scales that to 1).
-"""
+drawn surface's geometric error against the exact lobe (brdflab/geometry/lobe_surface.py)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 
-from brdflab.geometry.geodesic import geodesic_hemisphere
+from brdflab.geometry.lobe_surface import surface_error
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.study.framework import Part, StudyContext, pyplot, register, save_figure, timed
 
 LEVELS = (2, 3, 4, 5, 6, 7)
 QUICK_LEVELS = (2, 3, 4, 5)
-INSIDE = 6  # barycentric subdivisions per triangle edge for the error
 
 
 def test_materials() -> dict[str, AnalyticMaterial]:
@@ -33,29 +25,6 @@ def test_materials() -> dict[str, AnalyticMaterial]:
         "Blinn-Phong n=1000": material("sharp", Lobe.create("BlinnPhong", [0.5] * 3, Exponent=1000.0)),
         "Ward ax=0.05, ay=0.3": material("anisotropic", Lobe.create("Ward", [0.5] * 3, ax=0.05, ay=0.3)),
     }
-
-
-def surface_error(source, settings, level: int, inside: int = INSIDE) -> tuple[float, float]:
-    """(max, RMS) distance of the level-`level` surface from the exact lobe, relative to the
-    peak radius, over barycentric points of every triangle (vertices excluded: exact there)."""
-    from brdflab.render.lobe_view import lobe_radii
-
-    dirs, faces = geodesic_hemisphere(level)
-    dirs = dirs.astype(float)
-    radii = lobe_radii(source, settings, dirs)
-    i, j = np.meshgrid(np.arange(inside + 1), np.arange(inside + 1), indexing="ij")
-    keep = (i + j <= inside) & ~(((i == inside) | (j == inside)) | ((i == 0) & (j == 0)))
-    bary = np.stack([i[keep], j[keep], inside - i[keep] - j[keep]], axis=1) / inside  # (B, 3)
-    corners = (radii[faces][:, :, None] * dirs[faces])  # (T, 3 corners, 3)
-    points = np.einsum("bk,tkc->tbc", bary, corners).reshape(-1, 3)
-    length = np.linalg.norm(points, axis=1)
-    direction = np.where(length[:, None] > 0, points / np.maximum(length, 1e-300)[:, None],
-                         np.einsum("bk,tkc->tbc", bary, dirs[faces]).reshape(-1, 3))
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    exact = lobe_radii(source, settings, direction)
-    peak = max(float(radii.max()), float(exact.max()), 1e-300)
-    error = np.abs(length - exact) / peak
-    return float(error.max()), float(np.sqrt(np.mean(error**2)))
 
 
 def measure(context: StudyContext) -> dict:
@@ -77,7 +46,7 @@ def measure(context: StudyContext) -> dict:
             context.progress(f"lobe viewer: {name}, level {level}")
             viewer.settings.level = level
             ms = 1e3 * timed(lambda: viewer.render(size, size), 2 if context.quick else 3)
-            worst, rms = surface_error(source, viewer.settings, level)
+            worst, rms = surface_error(source, viewer.settings.shape, level)
             rows.append({"material": name, "level": level, "triangles": viewer.triangle_count(), "ms": ms,
                          "max_error": worst, "rms_error": rms})
     return {"size": size, "rows": rows, "renderer": ctx.info.get("GL_RENDERER", "")}
