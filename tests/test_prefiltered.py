@@ -218,7 +218,7 @@ def test_the_window_offers_the_mode_and_draws_it(qtbot, tmp_path):
     assert "prefiltered" in modes
     window.object_controls.mode.setCurrentText("prefiltered")
     assert view.settings.mode == "prefiltered"
-    qtbot.waitUntil(lambda: view.samples_done >= 1, timeout=60000)
+    qtbot.waitUntil(lambda: view.samples_done >= 1, timeout=120000)  # a worker process starts and builds
     view.makeCurrent()
     p = view._progressive
     shown = np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)
