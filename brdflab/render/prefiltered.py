@@ -94,7 +94,3 @@ class PrefilteredLighting:
         if self._albedo is not None:
             self._albedo[1].release()
         self._albedo = None
-
-    def release(self) -> None:
-        self.release_stack()
-        self.release_albedo()
