@@ -115,6 +115,20 @@ def renderer():
     return ObjectRenderer(create_context())
 
 
+def sh_errors(renderer, material, map_name: str, orders) -> list[float]:
+    """Relative RMSE of 40² SH renders of a shared map (reduced to 128 × 64) against quadrature."""
+    env = load_environment(DATA / "envmaps" / map_name).downsampled(128, 64)
+    renderer.set_environment(env)
+    renderer.set_source(material)
+    ref = environment_image(material, env, 40, 40)
+    inside = sphere_view(40, 40).inside
+    errors = []
+    for order in orders:
+        renderer.set_sh_order(order)
+        errors.append(relative_rmse(renderer.render(RenderSettings("sh", 40, 40)), ref, inside))
+    return errors
+
+
 @needs_shared("envmaps", "venice_sunset_1k.hdr")
 @pytest.mark.parametrize("name, material", [
     ("diffuse", AnalyticMaterial("d", "Linear", 3, [Lobe.create("Lambertian", [0.25, 0.2, 0.15])])),
@@ -122,15 +136,7 @@ def renderer():
                                                    Lobe.create("BlinnPhong", [0.3] * 3, Exponent=20.0)])),
 ])
 def test_sh_render_converges_to_quadrature(renderer, name, material):
-    env = load_environment(DATA / "envmaps" / "venice_sunset_1k.hdr").downsampled(128, 64)
-    renderer.set_environment(env)
-    renderer.set_source(material)
-    ref = environment_image(material, env, 40, 40)
-    inside = sphere_view(40, 40).inside
-    errors = []
-    for order in (2, 3, 5):
-        renderer.set_sh_order(order)
-        errors.append(relative_rmse(renderer.render(RenderSettings("sh", 40, 40)), ref, inside))
+    errors = sh_errors(renderer, material, "venice_sunset_1k.hdr", (2, 3, 5))
     assert errors[2] < 0.05
     assert errors[2] < errors[0] and errors[2] <= errors[1] * 1.05
 
@@ -139,16 +145,8 @@ def test_sh_render_converges_to_quadrature(renderer, name, material):
 def test_a_lambertian_gets_better_with_every_order(renderer):
     """Under a map with a sun, order 5 → 8 → 12 was 9.2 → 7.6 → 11 % (table noise grew with the
     order); now the error falls with the order, as truncation alone would have it."""
-    env = load_environment(DATA / "envmaps" / "quarry_01_1k.hdr").downsampled(128, 64)
     material = AnalyticMaterial("d", "Linear", 3, [Lobe.create("Lambertian", [0.5] * 3)])
-    renderer.set_environment(env)
-    renderer.set_source(material)
-    ref = environment_image(material, env, 40, 40)
-    inside = sphere_view(40, 40).inside
-    errors = []
-    for order in (5, 8, 12):
-        renderer.set_sh_order(order)
-        errors.append(relative_rmse(renderer.render(RenderSettings("sh", 40, 40)), ref, inside))
+    errors = sh_errors(renderer, material, "quarry_01_1k.hdr", (5, 8, 12))
     assert errors[1] < 0.8 * errors[0] and errors[2] < 0.8 * errors[1], errors
 
 

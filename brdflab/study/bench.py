@@ -6,12 +6,10 @@ against NumPy quadrature over the environment map's texels in the reference view
 
 from __future__ import annotations
 
-import io
 import json
 import platform
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -21,18 +19,13 @@ from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import all_models
 from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
 from brdflab.io.resources import data_dir
-from brdflab.study.framework import measured_slice
-
-Progress = Callable[[str], None]
+from brdflab.study.framework import Progress, measured_slice, pyplot, save_figure, timed
+from brdflab.study.framework import quiet as _quiet
 
 
 def stderr_progress(message: str) -> None:
     """One line per step on stderr, so a long run shows it is alive."""
     print(f"brdflab bench: {message}", file=sys.stderr, flush=True)
-
-
-def _quiet(message: str) -> None:
-    """No progress output."""
 
 BENCH_MATERIALS = {
     "diffuse": lambda: AnalyticMaterial("diffuse", "Linear", 3, [Lobe.create("Lambertian", [0.25, 0.2, 0.15])]),
@@ -43,16 +36,6 @@ BENCH_MATERIALS = {
 }
 
 
-def _timed(fn, repeat: int) -> float:
-    fn()  # warm-up (program compilation)
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def model_throughput(pairs: int) -> list[dict]:
     rng = np.random.default_rng(0)
     v = rng.normal(size=(2, pairs, 3))
@@ -60,7 +43,7 @@ def model_throughput(pairs: int) -> list[dict]:
     v /= np.linalg.norm(v, axis=-1, keepdims=True)
     rows = []
     for m in all_models():
-        s = _timed(lambda: m.evaluate(v[0], v[1]), 3)
+        s = timed(lambda: m.evaluate(v[0], v[1]), 3)
         rows.append({"model": m.name, "mpairs_per_s": pairs / s / 1e6})
     return rows
 
@@ -87,12 +70,12 @@ def render_numbers(quick: bool, progress: Progress = _quiet) -> dict:
         progress(f"rendering the {name} material (point light, FIS with {', '.join(map(str, counts))} samples)")
         material = make()
         renderer.set_material(material)
-        ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("point", size, size)), 3)
+        ms = 1e3 * timed(lambda: renderer.render(RenderSettings("point", size, size)), 3)
         out["point"].append({"material": name, "ms": ms})
         reference = environment_image(material, small, err_size, err_size)
         for n in counts:
             renderer.set_environment(env)
-            ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("fis", size, size, samples=n)), 1 if n > 64 else 2)
+            ms = 1e3 * timed(lambda: renderer.render(RenderSettings("fis", size, size, samples=n)), 1 if n > 64 else 2)
             renderer.set_environment(small)
             err = relative_rmse(renderer.render(RenderSettings("fis", err_size, err_size, samples=n)), reference, inside)
             out["fis"].append({"material": name, "samples": n, "ms": ms, "relative_rmse": err})
@@ -102,7 +85,7 @@ def render_numbers(quick: bool, progress: Progress = _quiet) -> dict:
     out["lobe_viewer"] = []
     for level in (4, 5, 6, 7):
         viewer.settings.level = level
-        ms = 1e3 * _timed(lambda: viewer.render(size, size), 3)
+        ms = 1e3 * timed(lambda: viewer.render(size, size), 3)
         out["lobe_viewer"].append({"level": level, "triangles": viewer.triangle_count(), "ms": ms})
     return out
 
@@ -161,37 +144,22 @@ def sh_numbers(quick: bool, progress: Progress = _quiet) -> dict:
         renderer.set_environment(env)
         for geometry in ("sphere", "mesh"):
             renderer.set_mesh(None if geometry == "sphere" else mesh)
-            ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("sh", size, size, reference_view=geometry == "sphere")), 2)
+            ms = 1e3 * timed(lambda: renderer.render(RenderSettings("sh", size, size, reference_view=geometry == "sphere")), 2)
             out["frames"].append({"order": order, "geometry": geometry,
                                   "vertices": 0 if geometry == "sphere" else mesh.n_vertices, "ms": ms})
         for variant in ("fixed-light", "fixed-view"):  # the paper's modes, per vertex on the mesh
             renderer.sh_variant = variant
-            ms = 1e3 * _timed(lambda: renderer.render(RenderSettings("sh", size, size, reference_view=False)), 2)
+            ms = 1e3 * timed(lambda: renderer.render(RenderSettings("sh", size, size, reference_view=False)), 2)
             out["frames"].append({"order": order, "geometry": variant, "vertices": mesh.n_vertices, "ms": ms})
         renderer.sh_variant = "dynamic"
         renderer.set_mesh(None)
     return out
 
 
-def _save(fig, path: Path) -> str:
-    """Save a chart atomically and close it; its file name."""
-    import matplotlib.pyplot as plt
-
-    from brdflab.io.atomic import atomic_write
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    plt.close(fig)
-    atomic_write(path, buf.getvalue())
-    return path.name
-
-
 def charts(result: dict, out_dir: Path) -> list[str]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import matplotlib.ticker
+
+    plt = pyplot()
 
     files = []
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
@@ -215,7 +183,7 @@ def charts(result: dict, out_dir: Path) -> list[str]:
     ax.set_title("Environment lighting: speed against accuracy (FIS labels: samples)")
     ax.legend()
     fig.tight_layout()
-    files.append(_save(fig, out_dir / "render_speed_accuracy.png"))
+    files.append(save_figure(fig, out_dir / "render_speed_accuracy.png"))
 
     fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
     rows = sorted(result["models"], key=lambda r: r["mpairs_per_s"])
@@ -227,7 +195,7 @@ def charts(result: dict, out_dir: Path) -> list[str]:
     ax.set_xlabel("million direction pairs per second (NumPy, one core)")
     ax.set_title("What each lobe model costs")
     fig.tight_layout()
-    files.append(_save(fig, out_dir / "model_throughput.png"))
+    files.append(save_figure(fig, out_dir / "model_throughput.png"))
     return files
 
 
