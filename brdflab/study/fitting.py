@@ -25,7 +25,6 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 from brdflab.errors import BRDFLabError
 from brdflab.models import model_names
