@@ -25,7 +25,6 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 from brdflab.errors import BRDFLabError
 from brdflab.models import model_names
@@ -49,10 +48,9 @@ class Matrix:
     two_fixed: bool = True  # Fixed with two lobes (3 × 2 per-channel lobes)
 
 
-# the full run, sized for ≈ 25 CPU-min (measured: a core fit on 20 k samples costs 0.1–2 s,
-# scoring it on all 1.1 M samples 0.3 s; a Fixed fit on all samples 5–60 s, a two-lobe one
-# up to 200 s): ≈ 500 core fits, then per model 4 Linear sizes (all samples included) and
-# 3 Fixed sizes (subsets only: all-sample Fixed fits would double the run)
+# the full run: 496 core fits on 20 k samples, then per model 4 Linear sizes (all samples
+# included) and 3 Fixed sizes (subsets only: a two-lobe Fixed fit on all samples costs as much
+# as 20–100 core fits); 697 fits, 993 CPU s when measured (docs/study.md)
 FULL = Matrix(tuple(model_names()), 20_000, (5_000, 20_000, 50_000, None), (5_000, 20_000, 50_000))
 QUICK = Matrix(("Lambertian", "BlinnPhong", "Ward"), 10_000, (2_000, 10_000, None), (2_000, 10_000))
 SCOPED = Matrix(("Lambertian", "BlinnPhong", "CookTorrance", "Ward", "LafortuneIso"), None,
