@@ -31,6 +31,23 @@ def needs_shared(*parts):
     return pytest.mark.skipif(not path.exists(), reason=f"{path} is not available")
 
 
+@pytest.fixture(scope="session")
+def quick_study(tmp_path_factory):
+    """`brdflab study --quick` run once for the session, as CI and a user run it (a subprocess
+    from another folder): (its output folder, its --json payload, study.json)."""
+    import json
+    import subprocess
+    import sys
+
+    work = tmp_path_factory.mktemp("quick-study")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    run = subprocess.run([sys.executable, "-m", "brdflab", "study", "--quick", "--out", "study", "--json"],
+                         cwd=work, env=env, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-2000:]
+    out = work / "study"
+    return out, json.loads(run.stdout), json.loads((out / "study.json").read_text())
+
+
 def pytest_configure(config):
     try:
         from brdflab.gui.gl_views import set_default_surface_format

@@ -183,14 +183,13 @@ def test_cli_renders_the_prefiltered_mode(tmp_path, capsys, monkeypatch):
 
 
 @needs_shared("envmaps", "venice_sunset_1k.hdr")
-def test_study_part_maps_the_error_over_glossiness_and_view_angle(tmp_path, capsys):
+def test_study_part_maps_the_error_over_glossiness_and_view_angle(quick_study):
     from brdflab.study.prefiltered import BANDS, QUICK_EXPONENTS
 
-    assert main(["study", "--quick", "--part", "prefiltered", "--out", str(tmp_path), "--json"]) == 0
-    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["charts"]["prefiltered"] == [
-        "prefiltered_stability.png"]
-    assert (tmp_path / "prefiltered_stability.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    part = json.loads((tmp_path / "study.json").read_text())["parts"]["prefiltered"]
+    out, payload, study = quick_study  # the session's `brdflab study --quick`
+    assert payload["charts"]["prefiltered"] == ["prefiltered_stability.png"]
+    assert (out / "prefiltered_stability.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    part = study["parts"]["prefiltered"]
     assert part["frame_ms"] > 0
     (entry,) = part["maps"].values()
     errors = np.array(entry["errors"], float)

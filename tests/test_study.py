@@ -69,23 +69,14 @@ def test_an_unknown_part_is_a_one_line_error(tmp_path, capsys):
     assert "\n" not in err and "unknown study part nope" in err and "viewer" in err
 
 
-def test_study_quick_runs_every_part_from_another_folder(tmp_path):
+def test_study_quick_runs_every_part_from_another_folder(quick_study):
     """What CI runs: `brdflab study --quick`, as a user would (a subprocess, another folder):
     every part registered writes its charts, and every number in study.json is finite."""
     import math
-    import os
-    import subprocess
-    import sys
-    from pathlib import Path
 
     from brdflab.study.framework import load_parts
 
-    out = tmp_path / "study"
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    run = subprocess.run([sys.executable, "-m", "brdflab", "study", "--quick", "--out", str(out), "--json"],
-                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
-    assert run.returncode == 0, run.stderr[-2000:]
-    payload = json.loads(run.stdout)
+    out, payload, study = quick_study
     assert set(payload["charts"]) == set(load_parts())
     for part, files in payload["charts"].items():
         pngs = [f for f in files if f.endswith(".png")]
@@ -93,7 +84,7 @@ def test_study_quick_runs_every_part_from_another_folder(tmp_path):
         for name in pngs:
             assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     numbers = []
-    stack = [json.loads((out / "study.json").read_text())]
+    stack = [study]
     while stack:
         value = stack.pop()
         if isinstance(value, dict):

@@ -1,13 +1,11 @@
 """`brdflab study` parts `fitting` (error against time) and `stability` (LM over starts)."""
 
-import json
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from brdflab.cli import main
 from brdflab.fitting.metrics import grid_error, metric_error
 from brdflab.fitting.samples import samples_of
 from brdflab.models import model_names
@@ -109,16 +107,14 @@ def test_the_starts_are_the_default_the_restarts_and_random_ones_in_bounds(rng):
 
 
 @needs_shared("merl_slices", "nickel.slice")
-def test_study_quick_writes_every_chart_with_finite_numbers(tmp_path, capsys):
-    """Both parts as CI runs them: every chart written, every number finite, every model
-    of the quick matrix fitted on every quick slice."""
-    assert main(["study", "--quick", "--part", "fitting", "--part", "stability", "--out", str(tmp_path), "--json"]) == 0
-    payload = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+def test_study_quick_writes_every_chart_with_finite_numbers(quick_study):
+    """Both parts as CI runs them (the session's `brdflab study --quick`): every chart written,
+    every number finite, every model of the quick matrix fitted on every quick slice."""
+    out, payload, study = quick_study
     assert payload["charts"]["fitting"] == ["fitting_pareto_materials_1.png", "fitting_pareto_pooled.png"]
     assert payload["charts"]["stability"] == ["stability_lm.png"]
-    for name in payload["files"][1:]:
-        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    study = json.loads((tmp_path / "study.json").read_text())
+    for name in payload["charts"]["fitting"] + payload["charts"]["stability"]:
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     check_finite(study["parts"], "study")
     fit = study["parts"]["fitting"]
     assert fit["fits_done"] == fit["fits_planned"] > 0
