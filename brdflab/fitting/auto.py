@@ -6,9 +6,9 @@ Lambertian + each one-lobe model; then the Lambertian + the best one-lobe result
 seeded random split of the source's samples and scored on the other half, the HELD-BACK
 samples it never saw, so that fitting noise does not pay.
 
-Within a rung, the candidates are ordered by parameters, then by evaluation time; the
-rung's pick is the first (cheapest) whose held-back error is within the tolerance T of
-the rung's best. The climb stops when the next rung's best held-back error does not
+Within a rung, the candidates are fitted in order of parameters, then evaluation time;
+the rung's pick is, of those whose held-back error is within the tolerance T of the
+rung's best, one with the fewest parameters (of them the lowest error). The climb stops when the next rung's best held-back error does not
 improve on the current pick by more than T (relative). `exhaustive=True` climbs every
 rung regardless, the reference Auto is checked against.
 """
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import numpy as np
@@ -171,9 +171,7 @@ def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: s
     and the pick. `models`: the lobe models tried (default: every registry model)."""
     validate_tolerance(tolerance)
     t0, c0 = time.perf_counter(), time.process_time()
-    options = options or FitOptions(metric=metric)
-    options.metric = metric
-    options.diagnose = False
+    options = replace(options or FitOptions(), metric=metric, diagnose=False)
     options.validate()
     fitted, held_back = split_samples(samples, split)
     names = [m for m in (models or model_names()) if m != "Lambertian"]
