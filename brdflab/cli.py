@@ -228,13 +228,15 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
         save(doc, Path(args.out))
         payload["out"] = args.out
     lines = [f"Auto ladder ({ladder.metric}; {ladder.fitted_samples} samples fitted, {ladder.held_back_samples} held "
-             f"back; tolerance {tolerance:.1%}):",
+             f"back; tolerance {tolerance:.1%}; a rung's candidates are screened on a quarter of the fitted "
+             f"samples, the held-back error of that screening in brackets):",
              f"{'':2}{'rung':>4}  {'lobes':<48} {'params':>6} {'fitted':>10} {'held back':>10} {'seconds':>8}"]
     for c in ladder.candidates:
         mark = "*" if c is ladder.chosen else ""
         lobes = "+".join(("Lambertian", *c.lobes))
-        lines.append(f"{mark:2}{c.rung:>4}  {lobes:<48} {c.parameters:>6} {c.error_fitted:>10.5g} "
-                     f"{c.error_held_back:>10.5g} {c.seconds:>8.2f}")
+        errors = (f"{c.error_fitted:>10.5g} {c.error_held_back:>10.5g}" if c.fitted else
+                  f"{'screened out (' + format(c.screen_error, '.4g') + ')':>21}")
+        lines.append(f"{mark:2}{c.rung:>4}  {lobes:<48} {c.parameters:>6} {errors} {c.seconds:>8.2f}")
     lines.append(f"chosen (*): {ladder.reason}; {ladder.seconds:.1f} s in all")
     if args.out:
         lines.append(f"stored the chosen fit in {args.out}")
