@@ -2,8 +2,10 @@
 
     python benchmarks/fit_auto.py [--split N] [--tolerance T] [--slices a,b,...] [--budget S] [--json OUT]
 
-Per slice, two independent runs of `brdflab.fitting.auto.auto_fit`: Auto (stops when a
-rung no longer pays) and exhaustive (climbs every rung). Hit: Auto's pick has a held-back
+Per slice, two independent runs of `brdflab.fitting.auto.auto_fit`: Auto (screens each
+rung, stops when a rung no longer pays) and exhaustive (fully fits every candidate of every
+rung). Auto's fully fitted candidates must equal the exhaustive run's (same split, same
+starts): how many do is reported. Hit: Auto's pick has a held-back
 error within T of the best candidate of the exhaustive run, with no more parameters than
 that best candidate (the fewest parameters of any exhaustive candidate within T of the best
 is reported too), and
@@ -57,13 +59,16 @@ def judge(auto: dict, exhaustive: dict, tolerance: float) -> dict:
         rungs = max(c["rung"] for c in auto["candidates"])
         why.append(f"Auto climbed {rungs} of {max(c['rung'] for c in candidates)} rungs"
                    + (" (every rung paid)" if rungs == max(c["rung"] for c in candidates) else ""))
-    return {"pick": "+".join(["Lambertian", *pick["lobes"]]), "pick_parameters": pick["parameters"],
+    reference = {tuple(c["lobes"]): c["error_held_back"] for c in candidates}
+    full = [c for c in auto["candidates"] if c["error_held_back"] is not None]
+    same = sum(reference.get(tuple(c["lobes"])) == c["error_held_back"] for c in full)
+    return {"auto_fully_fitted_as_in_exhaustive": f"{same}/{len(full)}", "pick": "+".join(["Lambertian", *pick["lobes"]]), "pick_parameters": pick["parameters"],
             "pick_error": pick["error_held_back"], "best": "+".join(["Lambertian", *best["lobes"]]),
             "best_parameters": best["parameters"], "best_error": best["error_held_back"],
             "cheapest_within_T_parameters": cheapest_near, "within_tolerance": within, "parameters_ok": params_ok,
             "auto_cpu_s": auto["cpu_seconds"], "exhaustive_cpu_s": exhaustive["cpu_seconds"],
             "auto_wall_s": auto["seconds"], "exhaustive_wall_s": exhaustive["seconds"],
-            "auto_fits": len(auto["candidates"]), "exhaustive_fits": len(candidates), "faster": faster,
+            "auto_fits": len(auto["candidates"]), "auto_full_fits": len(full), "exhaustive_fits": len(candidates), "faster": faster,
             "hit": within and params_ok and faster, "why_missed": "; ".join(why)}
 
 
