@@ -13,7 +13,7 @@ when the next rung's best held-back error does not improve on the current pick b
 than T (relative).
 
 To cost less than fitting everything, Auto screens each rung first: every candidate is
-fitted on a quarter of the fitted samples, and only those near the screening's best (see
+fitted quickly (a quarter of the fitted samples, from its start alone, few steps), and only those near the screening's best (see
 `screen_margin`) are fitted fully, from the same start as without screening.
 `exhaustive=True` fully fits every candidate of every rung, past the stop too: the
 reference Auto is checked against (`benchmarks/fit_auto.py`).
@@ -43,6 +43,7 @@ SPLIT_SEED = 13
 SCREEN_KEEP = 3  # Auto fully fits at least this many of a rung's screened candidates
 SCREEN_MIN_MARGIN = 0.15
 SCREEN_MIN_SAMPLES = 500
+SCREEN_ITERATIONS = 25  # a screening fit: from the start alone (no restarts), this many LM steps at most
 
 
 @dataclass
@@ -185,12 +186,14 @@ def screen_margin(tolerance: float) -> float:
 
 def _screen(rung: list[Candidate], base: Candidate, fitted: SampleSet, held_back: SampleSet, combination: str,
             options: FitOptions, tolerance: float) -> list[Candidate]:
-    """Fit every candidate on a quarter of the fitted samples; the ones worth a full fit:
+    """Fit every candidate quickly (a quarter of the fitted samples, no restarts, few
+    steps: fit time is mostly restarts and steps, not samples); the ones worth a full fit:
     those whose held-back error there is within `screen_margin` of the best, and at least
     the SCREEN_KEEP best."""
     small = fitted.subset(max(SCREEN_MIN_SAMPLES, fitted.size // 4), seed=SPLIT_SEED)
+    quick = replace(options, restarts=False, max_iterations=min(options.max_iterations, SCREEN_ITERATIONS))
     for c in rung:
-        c.screen_error = _fit(c, base, small, held_back, combination, options)[1]
+        c.screen_error = _fit(c, base, small, held_back, combination, quick)[1]
     ranked = sorted(rung, key=lambda c: (c.screen_error, c.lobes))
     keep = {id(c) for c in ranked[:SCREEN_KEEP]}
     keep |= {id(c) for c in rung if not improves(c.screen_error, ranked[0].screen_error, screen_margin(tolerance))}
