@@ -128,6 +128,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
         raise BRDFLabError(f"--time-limit {args.time_limit:g}: must be a positive number of seconds")
     if args.out:
         check_writable(args.out)  # a bad --out fails before the fit, not after it
+    for option, given in (("--tolerance", args.tolerance is not None), ("--models", args.models)):
+        if given and not args.auto:
+            raise BRDFLabError(f"{option} applies to --auto")
+    if args.auto:
+        return _fit_auto(args, Path(args.source))
     for option, value, kind in (("--size", args.size, "subset"), ("--density", args.density, "grid")):
         if value is not None and args.samples != kind:
             raise BRDFLabError(f"{option} applies to --samples {kind}, not --samples {args.samples}")
@@ -188,6 +193,54 @@ def cmd_fit(args: argparse.Namespace) -> int:
         saved = f"; the best parameters so far are saved in {args.out}" if args.out else ""
         print(f"brdflab fit: interrupted{saved}", file=sys.stderr)
         return 130
+    return 0
+
+
+def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
+    """`brdflab fit SOURCE --auto`: the ladder as a table (or JSON); --out stores the pick."""
+    from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE, auto_fit, validate_tolerance
+    from brdflab.fitting.lm import FitOptions
+    from brdflab.fitting.samples import samples_of
+    from brdflab.fitting.stored import append_fitting, document_for
+    from brdflab.io.xmlio import save
+    from brdflab.models import get_model
+    from brdflab.sources.files import load_source
+
+    tolerance = DEFAULT_TOLERANCE if args.tolerance is None else args.tolerance
+    validate_tolerance(tolerance)
+    for option, given in (("--init", args.init), ("--samples", args.samples != "all"), ("--density", args.density)):
+        if given:
+            raise BRDFLabError(f"{option} does not apply to --auto (it fits its own split of the samples)")
+    source = load_source(source_path, fitting=args.fitting, warn=_warner(args))
+    options = FitOptions(metric=args.metric, compression=args.compression, max_iterations=args.max_iterations,
+                         time_limit=args.time_limit, restarts=args.restarts is not False)
+    models = [m.strip() for m in args.models.split(",") if m.strip()] if args.models else None
+    for name in models or []:
+        get_model(name)  # an unknown name fails before any fit
+    ladder = auto_fit(samples_of(source), tolerance, args.metric, {"linear": "Linear", "fixed": "Fixed"}[args.combination],
+                      split=args.size or DEFAULT_SPLIT, models=models, options=options)
+    chosen = ladder.chosen.result
+    chosen.scored_on = f"the {ladder.fitted_samples} samples Auto fitted"
+    payload = {**ladder.as_dict(), "source": str(source_path), "fit": chosen.as_dict()}
+    if args.out:
+        doc = document_for(source_path, source)
+        append_fitting(doc, chosen)
+        save(doc, Path(args.out))
+        payload["out"] = args.out
+    lines = [f"Auto ladder ({ladder.metric}; {ladder.fitted_samples} samples fitted, {ladder.held_back_samples} held "
+             f"back; tolerance {tolerance:.1%}; a rung's candidates are screened on a quarter of the fitted "
+             f"samples, the held-back error of that screening in brackets):",
+             f"{'':2}{'rung':>4}  {'lobes':<48} {'params':>6} {'fitted':>10} {'held back':>10} {'seconds':>8}"]
+    for c in ladder.candidates:
+        mark = "*" if c is ladder.chosen else ""
+        lobes = "+".join(("Lambertian", *c.lobes))
+        errors = (f"{c.error_fitted:>10.5g} {c.error_held_back:>10.5g}" if c.fitted else
+                  f"{'screened out (' + format(c.screen_error, '.4g') + ')':>21}")
+        lines.append(f"{mark:2}{c.rung:>4}  {lobes:<48} {c.parameters:>6} {errors} {c.seconds:>8.2f}")
+    lines.append(f"chosen (*): {ladder.reason}; {ladder.seconds:.1f} s in all")
+    if args.out:
+        lines.append(f"stored the chosen fit in {args.out}")
+    _emit(args, payload, "\n".join(lines))
     return 0
 
 
@@ -453,7 +506,15 @@ def build_parser() -> argparse.ArgumentParser:
              "solid-angle measure of (ωi, ωo) pairs. " + DEFAULTS_WHY)
     p.add_argument("source", type=material_path,
                    help="measured data file, XML material (or example:NAME), or XML with fits (see --fitting)")
-    p.add_argument("--lobes", help="comma-separated lobe models, e.g. Lambertian,LafortuneIso")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument("--lobes", help="comma-separated lobe models, e.g. Lambertian,LafortuneIso")
+    which.add_argument("--auto", action="store_true",
+                       help="climb a ladder of candidates (Lambertian, + one lobe of each model, two, three) "
+                            "and keep the cheapest that more lobes no longer improve by more than --tolerance "
+                            "on held-back samples; prints the ladder")
+    p.add_argument("--tolerance", type=float, default=None,
+                   help="with --auto: the relative held-back error gain a rung must beat (default 0.05)")
+    p.add_argument("--models", help="with --auto: the lobe models the ladder tries, comma-separated (default: all)")
     p.add_argument("--combination", choices=["linear", "fixed"], default="linear", help="how lobes combine")
     p.add_argument("--metric", default=DEFAULT_METRIC, help="Ngan, L2 or cosL2")
     p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"], help="of the values fitted")
@@ -462,7 +523,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="fit the K-th stored fit of SOURCE")
     p.add_argument("--samples", choices=["all", "subset", "grid"], default="all", help="which samples to fit")
     p.add_argument("--size", type=int_in(1, 100_000_000), default=None,
-                   help="samples in a subset (default: 50,000)")
+                   help="samples in a subset (default: 50,000); with --auto, samples fitted and as many "
+                        "held back (default: 20,000)")
     p.add_argument("--density", type=int_in(2, 90), default=None,
                    help="bins per angle of a grid (2..90; default: 45 for tables, 32 for analytic sources)")
     p.add_argument("--restarts", action=argparse.BooleanOptionalAction, default=None,

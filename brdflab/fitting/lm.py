@@ -152,6 +152,13 @@ def free_blocks(material: AnalyticMaterial) -> list[FreeBlock]:
     return blocks
 
 
+def parameter_count(material: AnalyticMaterial) -> int:
+    """Every number the fit sets: nonlinear search variables, plus one scaling factor per
+    lobe and channel in Linear combinations (solved by NNLS)."""
+    nonlinear = sum(b.size for b in free_blocks(material))
+    return nonlinear + (material.n_channels * len(material.lobes) if material.combination == "Linear" else 0)
+
+
 # --- options, progress, result -----------------------------------------------------------
 
 @dataclass

@@ -17,7 +17,7 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.diagnosis import at_bound
-from brdflab.fitting.lm import FitOptions, fit, free_blocks, material_from_lobes
+from brdflab.fitting.lm import FitOptions, fit, material_from_lobes, parameter_count
 from brdflab.fitting.metrics import metric_errors
 from brdflab.fitting.samples import SampleSet, samples_of
 from brdflab.material.analytic import AnalyticMaterial, Lobe
@@ -74,13 +74,6 @@ def start_material(job: FitJob) -> AnalyticMaterial:
             if lobe.model.name != "Lambertian":
                 lobe.params.update(dict(job.start))
     return material
-
-
-def parameter_count(material: AnalyticMaterial) -> int:
-    """Every number the fit sets: nonlinear search variables, plus 3 scaling factors per
-    lobe in Linear combinations (solved by NNLS)."""
-    nonlinear = sum(b.size for b in free_blocks(material))
-    return nonlinear + (3 * len(material.lobes) if material.combination == "Linear" else 0)
 
 
 def bounds_hit(material: AnalyticMaterial) -> list[str]:

@@ -1,0 +1,262 @@
+"""Auto fitting: model no more than a source needs (issue 13).
+
+A ladder of candidate materials, climbed in order of cost: the Lambertian alone; the
+Lambertian + each one-lobe model; then the Lambertian + the best one-lobe result's lobe
++ each model; then three lobes the same way. Every candidate is fitted on one half of a
+seeded random split of the source's samples and scored on the other half, the HELD-BACK
+samples it never saw, so that fitting noise does not pay.
+
+Within a rung, the candidates are fitted in order of parameters, then evaluation time;
+the rung's pick is, of those whose held-back error is within the tolerance T of the
+rung's best, one with the fewest parameters (of them the lowest error). The climb stops
+when the next rung's best held-back error does not improve on the current pick by more
+than T (relative).
+
+To cost less than fitting everything, Auto screens each rung first: every candidate is
+fitted quickly (a quarter of the fitted samples, from its start alone, few steps), and only those near the screening's best (see
+`screen_margin`) are fitted fully, from the same start as without screening.
+`exhaustive=True` fully fits every candidate of every rung, past the stop too: the
+reference Auto is checked against (`benchmarks/fit_auto.py`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from functools import lru_cache
+
+import numpy as np
+
+from brdflab.errors import BRDFLabError
+from brdflab.fitting.defaults import DEFAULT_METRIC
+from brdflab.fitting.lm import FitOptions, FitResult, fit, material_from_lobes, parameter_count
+from brdflab.fitting.metrics import metric_errors
+from brdflab.fitting.samples import ArraySampleSet, SampleSet
+from brdflab.material.analytic import AnalyticMaterial
+from brdflab.models import get_model, model_names
+
+DEFAULT_TOLERANCE = 0.05
+DEFAULT_SPLIT = 20_000  # samples fitted, and as many held back
+MAX_LOBES = 3  # after the Lambertian
+SPLIT_SEED = 13
+SCREEN_KEEP = 3  # Auto fully fits at least this many of a rung's screened candidates
+SCREEN_MIN_MARGIN = 0.15
+SCREEN_MIN_SAMPLES = 500
+SCREEN_ITERATIONS = 25  # a screening fit: from the start alone (no restarts), this many LM steps at most
+
+
+@dataclass
+class Candidate:
+    """One rung's candidate: its lobes, cost, errors and time."""
+
+    rung: int
+    lobes: tuple[str, ...]
+    parameters: int
+    evaluation_ns: float  # per sample pair, of the lobes after the Lambertian
+    error_fitted: float = math.nan
+    error_held_back: float = math.nan
+    seconds: float = 0.0  # wall time of the fit and its held-back scoring
+    cpu_seconds: float = 0.0  # this process's CPU time for the same (robust on a shared machine)
+    status: str = ""
+    screen_error: float = math.nan  # held-back error of the screening fit (Auto, rungs ≥ 1)
+    result: FitResult | None = field(default=None, repr=False)
+
+    @property
+    def fitted(self) -> bool:
+        return self.result is not None
+
+    def as_dict(self) -> dict:
+        return {"rung": self.rung, "lobes": list(self.lobes), "parameters": self.parameters,
+                "evaluation_ns": round(self.evaluation_ns, 2), "error_fitted": _number(self.error_fitted),
+                "error_held_back": _number(self.error_held_back), "screen_error": _number(self.screen_error),
+                "seconds": round(self.seconds, 4), "cpu_seconds": round(self.cpu_seconds, 4), "status": self.status,
+                "fitted": self.result.material.describe()["lobes"] if self.result is not None else None}
+
+
+@dataclass
+class Ladder:
+    """What an Auto run did: every candidate fitted, the pick and why."""
+
+    candidates: list[Candidate]
+    chosen: Candidate
+    reason: str
+    tolerance: float
+    metric: str
+    fitted_samples: int
+    held_back_samples: int
+    seconds: float
+    cpu_seconds: float
+
+    def as_dict(self) -> dict:
+        return {"tolerance": self.tolerance, "metric": self.metric, "fitted_samples": self.fitted_samples,
+                "held_back_samples": self.held_back_samples, "seconds": round(self.seconds, 4),
+                "cpu_seconds": round(self.cpu_seconds, 4), "chosen": self.candidates.index(self.chosen), "reason": self.reason,
+                "candidates": [c.as_dict() for c in self.candidates]}
+
+
+def _number(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def improves(current: float, new: float, tolerance: float) -> bool:
+    """Whether `new` is lower than `current` by more than `tolerance` of `current`."""
+    return new < current * (1.0 - tolerance)
+
+
+def validate_tolerance(tolerance: float) -> None:
+    if not (math.isfinite(tolerance) and 0.0 <= tolerance < 1.0):
+        raise BRDFLabError(f"--tolerance {tolerance:g}: must be a relative error in [0, 1), e.g. 0.05")
+
+
+def split_samples(samples: SampleSet, size: int = DEFAULT_SPLIT, seed: int = SPLIT_SEED
+                  ) -> tuple[ArraySampleSet, ArraySampleSet]:
+    """A stratified subset of 2·size samples (all, if fewer), shuffled with `seed` and cut
+    in two: (fitted, held back). Each half's weights stand for the whole measure."""
+    pool = samples.subset(2 * size, seed=seed)
+    if not isinstance(pool, ArraySampleSet):
+        pool = ArraySampleSet(*(np.concatenate(x) for x in zip(*pool.chunks())))
+    if pool.size < 2:
+        raise BRDFLabError("Auto needs at least 2 samples to hold some back")
+    order = np.random.default_rng(seed).permutation(pool.size)
+    halves = np.array_split(order, 2)
+
+    def part(idx: np.ndarray) -> ArraySampleSet:
+        return ArraySampleSet(pool.wi[idx], pool.wo[idx], pool.values[idx], pool.weight[idx] * (pool.size / idx.size))
+
+    return part(np.sort(halves[0])), part(np.sort(halves[1]))
+
+
+@lru_cache(maxsize=None)
+def evaluation_ns(model: str, pairs: int = 20_000) -> float:
+    """A model's evaluation time per sample pair at its defaults (best of 3; ns)."""
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(2, pairs, 3))
+    v[..., 2] = np.abs(v[..., 2])
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    m = get_model(model)
+    params = m.defaults()
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        m.evaluate(v[0], v[1], params)
+        best = min(best, time.perf_counter() - t0)
+    return best / pairs * 1e9
+
+
+def _candidate(rung: int, lobes: tuple[str, ...], combination: str, n_channels: int) -> Candidate:
+    material = material_from_lobes(["Lambertian", *lobes], combination, n_channels)
+    return Candidate(rung, lobes, parameter_count(material), sum(evaluation_ns(m) for m in lobes))
+
+
+def _start(candidate: Candidate, base: Candidate | None, combination: str, n_channels: int) -> AnalyticMaterial:
+    """The candidate's start: model defaults, with the inherited lobes at their fitted values."""
+    material = material_from_lobes(["Lambertian", *candidate.lobes], combination, n_channels)
+    if base is not None and base.result is not None:
+        for old, new in zip(base.result.material.lobes, material.lobes[:len(base.result.material.lobes)]):
+            new.params = dict(old.params)
+            new.scale = list(old.scale)
+    return material
+
+
+def _fit(candidate: Candidate, base: Candidate | None, fitted: SampleSet, held_back: SampleSet,
+         combination: str, options: FitOptions) -> tuple[FitResult, float]:
+    """Fit the candidate (from its start) and score it on the held-back samples; its
+    times grow by what this took."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    start = _start(candidate, base, combination, fitted.n_channels)
+    result = fit(start, fitted, options)
+    (held,) = metric_errors([result.material], held_back, options.metric)
+    candidate.seconds += time.perf_counter() - t0
+    candidate.cpu_seconds += time.process_time() - c0
+    return result, held
+
+
+def _fit_fully(candidate: Candidate, base: Candidate | None, fitted: SampleSet, held_back: SampleSet,
+               combination: str, options: FitOptions) -> None:
+    candidate.result, candidate.error_held_back = _fit(candidate, base, fitted, held_back, combination, options)
+    candidate.status, candidate.error_fitted = candidate.result.status, candidate.result.error
+
+
+def screen_margin(tolerance: float) -> float:
+    """How far (relative) behind the screening's best a candidate may be and still be fully
+    fitted: three tolerances, at least 15 % (a quarter of the samples ranks fits roughly)."""
+    return max(3.0 * tolerance, SCREEN_MIN_MARGIN)
+
+
+def _screen(rung: list[Candidate], base: Candidate, fitted: SampleSet, held_back: SampleSet, combination: str,
+            options: FitOptions, tolerance: float) -> list[Candidate]:
+    """Fit every candidate quickly (a quarter of the fitted samples, no restarts, few
+    steps: fit time is mostly restarts and steps, not samples); the ones worth a full fit:
+    those whose held-back error there is within `screen_margin` of the best, and at least
+    the SCREEN_KEEP best."""
+    small = fitted.subset(max(SCREEN_MIN_SAMPLES, fitted.size // 4), seed=SPLIT_SEED)
+    quick = replace(options, restarts=False, max_iterations=min(options.max_iterations, SCREEN_ITERATIONS))
+    for c in rung:
+        c.screen_error = _fit(c, base, small, held_back, combination, quick)[1]
+    ranked = sorted(rung, key=lambda c: (c.screen_error, c.lobes))
+    keep = {id(c) for c in ranked[:SCREEN_KEEP]}
+    keep |= {id(c) for c in rung if not improves(c.screen_error, ranked[0].screen_error, screen_margin(tolerance))}
+    for c in rung:
+        if id(c) not in keep:
+            c.status = "screened out"
+    return [c for c in rung if id(c) in keep]
+
+
+def _label(candidate: Candidate) -> str:
+    return "+".join(("Lambertian", *candidate.lobes))
+
+
+def _pick(rung: list[Candidate], tolerance: float) -> Candidate:
+    """Among the candidates within `tolerance` of the rung's best held-back error, those
+    with the fewest parameters; of them the lowest error (not the fastest: measured times
+    of near-equal models can swap between runs, and the pick must be deterministic)."""
+    best = min(c.error_held_back for c in rung)
+    near = [c for c in rung if not improves(c.error_held_back, best, tolerance)]
+    fewest = min(c.parameters for c in near)
+    return min((c for c in near if c.parameters == fewest), key=lambda c: (c.error_held_back, c.lobes))
+
+
+def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: str = DEFAULT_METRIC,
+             combination: str = "Linear", split: int = DEFAULT_SPLIT, models: list[str] | None = None,
+             max_lobes: int = MAX_LOBES, exhaustive: bool = False, options: FitOptions | None = None) -> Ladder:
+    """Climb the ladder on `samples` (see the module doc); returns every candidate fitted
+    and the pick. `models`: the lobe models tried (default: every registry model)."""
+    validate_tolerance(tolerance)
+    t0, c0 = time.perf_counter(), time.process_time()
+    options = replace(options or FitOptions(), metric=metric, diagnose=False)
+    options.validate()
+    fitted, held_back = split_samples(samples, split)
+    names = [m for m in (models or model_names()) if m != "Lambertian"]
+    channels = samples.n_channels
+    lambertian = _candidate(0, (), combination, channels)
+    _fit_fully(lambertian, None, fitted, held_back, combination, options)
+    done, chosen, base, stopped = [lambertian], lambertian, lambertian, False
+    reason = f"no lobe model to add: the Lambertian alone ({metric} {chosen.error_held_back:.4g} held back)"
+    for rung_index in range(1, max_lobes + 1):
+        if not names or (stopped and not exhaustive):
+            break
+        rung = sorted((_candidate(rung_index, (*base.lobes, m), combination, channels) for m in names),
+                      key=lambda c: (c.parameters, c.evaluation_ns, c.lobes))
+        full = rung if exhaustive else _screen(rung, base, fitted, held_back, combination, options, tolerance)
+        for c in full:
+            _fit_fully(c, base, fitted, held_back, combination, options)
+        done += rung
+        best = min(full, key=lambda c: c.error_held_back)
+        base = best
+        if stopped:
+            continue  # exhaustive: past the stop, climbed for the reference only
+        gain = 1.0 - best.error_held_back / chosen.error_held_back if chosen.error_held_back > 0 else 0.0
+        if improves(chosen.error_held_back, best.error_held_back, tolerance):
+            chosen = _pick(full, tolerance)
+            reason = (f"rung {rung_index} improved the held-back {metric} error by {gain:.1%} (> {tolerance:.1%}); "
+                      f"{_label(chosen)} has the fewest parameters within the tolerance of its best "
+                      f"({_label(best)}), and the ladder ends there")
+        else:
+            stopped = True
+            reason = (f"rung {rung_index} improves the held-back {metric} error by {gain:.1%} at best "
+                      f"({_label(best)}), not more than the tolerance {tolerance:.1%}: {_label(chosen)} is enough")
+    if exhaustive:
+        reason = "exhaustive run (every rung climbed, every candidate fully fitted): " + reason
+    return Ladder(done, chosen, reason, tolerance, metric, fitted.size, held_back.size, time.perf_counter() - t0,
+                  time.process_time() - c0)
