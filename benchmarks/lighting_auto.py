@@ -3,8 +3,9 @@
     python benchmarks/lighting_auto.py [--tolerance 0.02] [--json docs/bench/lighting_auto.json]
                                        [--quick]
 
-For every (material, map) pair of the lighting study's matrix (its material classes, the
-measured MERL slice, its three real maps), with the map area-averaged to 128 × 64 as the
+For every (material, map) pair of eight of the lighting study's material classes (the
+measured MERL slice, sharp Blinn–Phong and Cook–Torrance lobes, an anisotropic Ward, a
+Lambertian) under its three real maps and the shared forest map, with the map area-averaged to 128 × 64 as the
 study does: `choose_lighting` picks a setting from the pilot alone; then every candidate is
 rendered (reference view, 48²) and scored against the texel quadrature (`environment_image`),
 and timed (one 64² frame per material and setting, the study's `frame_ms`). Reported per
@@ -26,6 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.io.atomic import atomic_write
+from brdflab.io.resources import shared_data_dir
+from brdflab.lighting.envmap import load_environment
 from brdflab.lighting.auto import DEFAULT_TOLERANCE, choose_lighting
 from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
 from brdflab.render.context import create_context
@@ -34,6 +37,7 @@ from brdflab.sources.proxy import proxy_lobes
 from brdflab.study.lighting import (MEASURED_CLASS, build_sh_table, frame_ms, material_classes, reduced,
                                     reference_floor, study_maps)
 
+EXTRA_MAP = "envmaps/forest.exr"  # a fourth map (shared data): 8 materials × 4 maps = 32 pairs
 SIZE = 48  # error images
 FRAME = 64  # timed frames (what matters is their ratio)
 
@@ -63,11 +67,13 @@ def run(tolerance: float, quick: bool, json_path: Path) -> dict:
     classes = material_classes(False, skipped)
     # the most telling first, so that an interrupted run has covered every kind
     order = ["Lambertian", "Blinn-Phong n=1000", MEASURED_CLASS, "Cook-Torrance m=0.2",
-             "Ward ax=0.05 ay=0.3 (anisotropic)", "Blinn-Phong n=100", "Cook-Torrance m=0.05"]
-    classes = {k: classes[k] for k in order if k in classes} | classes
+             "Ward ax=0.05 ay=0.3 (anisotropic)", "Blinn-Phong n=100", "Cook-Torrance m=0.05", "Blinn-Phong n=10"]
+    classes = {k: classes[k] for k in order if k in classes}
     if quick:
         classes = {k: classes[k] for k in ("Lambertian", "Blinn-Phong n=1000")}
     maps = {name: reduced(env) for name, _, env in study_maps(False, skipped)}
+    if (extra := shared_data_dir()) is not None and (extra / EXTRA_MAP).is_file():
+        maps[Path(EXTRA_MAP).stem] = reduced(load_environment(extra / EXTRA_MAP))
     renderer = ObjectRenderer(create_context())
     rows = []
     for material, make in classes.items():
@@ -77,7 +83,7 @@ def run(tolerance: float, quick: bool, json_path: Path) -> dict:
         for name, small in maps.items():
             t0 = time.perf_counter()
             choices[name] = (choose_lighting(source, small, tolerance, proxy), time.perf_counter() - t0)
-        candidates = next(iter(choices.values()))[0].candidates
+        candidates = next(iter(choices.values()))[0].candidates  # the same settings for every map
         ms, errors = measure_material(renderer, source, maps, candidates)
         for name, small in maps.items():
             choice, seconds = choices[name]
@@ -90,7 +96,7 @@ def run(tolerance: float, quick: bool, json_path: Path) -> dict:
                    "cheapest_ms": meeting[0][0] if meeting else None,
                    "floor": reference_floor(source, small),
                    "sweep": [{"label": c.label, "ms": ms[c.label], "predicted": c.predicted_error,
-                              "measured": errors[(name, c.label)]} for c in candidates],
+                              "measured": errors[(name, c.label)]} for c in choice.candidates],
                    "reasons": choice.reasons}
             row["cost_ratio"] = row["choice_ms"] / row["cheapest_ms"] if meeting else None
             row["judged"] = row["floor"] <= tolerance / 2

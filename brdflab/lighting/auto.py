@@ -34,7 +34,7 @@ STRATIFICATION = 0.25  # the sampled modes' error falls as N^-(0.5 + this): stra
 SH_TABLE_ERROR = 0.005
 # milliseconds per 128² reference-view frame on the machine the lab was measured on
 # (llvmpipe; docs/bench/lighting_auto.json has this machine's own): only the order matters
-FRAME_COST_MS = {"prefiltered": lambda s: 2.5, "sh": lambda L: 2.0 + 0.02 * L**3,
+FRAME_COST_MS = {"prefiltered": lambda s: 2.5, "sh": lambda L: 0.28 * L**4,
                  "fis": lambda n: 1.7 * n, "mis": lambda n: 2.6 * n}
 
 
