@@ -12,7 +12,7 @@ The sampled modes' predictions are the Monte Carlo √(Var/N) law times a factor
 (`SAMPLED_FACTOR`) and (N/4)^-STRATIFICATION: the renderer's stratified sets and
 mip-filtered lookups converge faster than independent samples. The factors and the exponent
 were calibrated once, by hand, on the shipped venice map with a Lambertian and Blinn–Phong
-n = 100 (measured against the quadrature at 4–1024 samples); the benchmark.s other 30 pairs
+n = 100 (measured against the quadrature at 4–1024 samples); the benchmark's other 30 pairs
 were not used (venice is also one of its maps). SH adds its tables' own error (`SH_TABLE_ERROR`), a floor.
 """
 
