@@ -270,6 +270,23 @@ def _vector(text: str, n: int, what: str) -> tuple[float, ...]:
     return values
 
 
+def _resolve_auto(args: argparse.Namespace, source, renderer):
+    """--mode auto: pick the lighting from the material and the map (lighting/auto.py) and
+    put the pick into args (mode, samples, SH order), so the render is that setting's."""
+    from brdflab.lighting.auto import choose_lighting
+
+    if args.sh_shadows or args.sh_variant != "dynamic" or args.env_rotation:
+        raise BRDFLabError("--mode auto predicts the reference view's unshadowed, unturned lighting: "
+                           "drop --sh-shadows, --sh-variant and --env-rotation, or pick a mode")
+    choice = choose_lighting(source, renderer.environment, args.tolerance, proxy=renderer.material)
+    args.mode = choice.mode
+    if choice.mode in ("fis", "mis"):
+        args.samples = choice.setting
+    if choice.mode == "sh":
+        args.sh_order = choice.setting
+    return choice
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from brdflab.lighting.envmap import load_environment, write_exr
     from brdflab.io.mesh import default_mesh, load_mesh
@@ -289,8 +306,6 @@ def cmd_render(args: argparse.Namespace) -> int:
     if math.hypot(*light) < 1e-12:
         raise BRDFLabError("--light must not be the zero vector")
     source = load_source(Path(args.material), fitting=args.fitting, warn=_warner(args))
-    settings = RenderSettings(mode=args.mode, width=width, height=height, samples=args.samples, light=light,
-                              env_rotation=args.env_rotation, reference_view=args.view == "reference")
     ctx = create_context()
     renderer = ObjectRenderer(ctx)
     try:
@@ -299,9 +314,12 @@ def cmd_render(args: argparse.Namespace) -> int:
         raise BRDFLabError(str(e), args.material) from None
     if args.view != "reference":
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
-    if args.mode in ("fis", "sh", "prefiltered", "mis"):
+    if args.mode in ("fis", "sh", "prefiltered", "mis", "auto"):
         env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
         renderer.set_environment(load_environment(env_path, args.env_layout))
+    auto = _resolve_auto(args, source, renderer) if args.mode == "auto" else None
+    settings = RenderSettings(mode=args.mode, width=width, height=height, samples=args.samples, light=light,
+                              env_rotation=args.env_rotation, reference_view=args.view == "reference")
     if args.mode == "sh":
         renderer.set_sh_order(args.sh_order, None if args.sh_window == "none" else args.sh_window)
         renderer.sh_shadows = args.sh_shadows
@@ -324,7 +342,11 @@ def cmd_render(args: argparse.Namespace) -> int:
                      "size": [width, height], "samples": args.samples, "light": light, "sh_order": args.sh_order,
                      "env": args.env, "renderer": ctx.info.get("GL_RENDERER", "")},
     }
-    _emit(args, payload, f"wrote {out} ({width}×{height}, {args.mode}, {seconds * 1e3:.1f} ms)")
+    human = f"wrote {out} ({width}×{height}, {args.mode}, {seconds * 1e3:.1f} ms)"
+    if auto is not None:
+        payload["auto"] = auto.as_dict()
+        human = "\n".join(auto.reasons + [human])
+    _emit(args, payload, human)
     return 0
 
 
@@ -553,10 +575,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _add(sub, "render", "offscreen render of a material")
     p.add_argument("material", type=material_path, help="XML material, measured data file, or example:NAME")
-    p.add_argument("--mode", choices=["point", "fis", "sh", "prefiltered", "mis"], default="point",
+    p.add_argument("--mode", choices=["point", "fis", "sh", "prefiltered", "mis", "auto"], default="point",
                    help="point light, filtered importance sampling of --env, spherical harmonics, "
-                        "prefiltered lighting (the split sum), or mis: the BRDF's and the map's importance "
-                        "sampling combined (half the samples each)")
+                        "prefiltered lighting (the split sum), mis: the BRDF's and the map's importance "
+                        "sampling combined (half the samples each), or auto: the cheapest of these "
+                        "predicted within --tolerance for this material and map")
+    p.add_argument("--tolerance", type=finite_float, default=0.02,
+                   help="--mode auto: the relative RMSE (reference view) to stay within (default 0.02)")
     p.add_argument("--view", choices=["reference", "orbit"], default="orbit",
                    help="reference: the benchmarks' orthographic unit sphere; orbit: a perspective view of --mesh")
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")

@@ -1,0 +1,171 @@
+"""Auto lighting: the cheapest lighting setting predicted to stay within a tolerance.
+
+The candidates are prefiltered, SH at orders 2–12, FIS and MIS at 4–1024 samples (the
+settings the lighting study sweeps), ordered by a frame-cost model. Each gets a predicted
+relative RMSE in the reference view from the pilot (`auto_pilot`): quantities computed
+before rendering from the material and the map alone — the lobes' sharpness, the map's
+energy beyond SH order L and its brightest texels, the sampled modes' one-sample variance.
+The first candidate whose prediction is within the tolerance is chosen; if none is, the
+one predicted best. Nothing is rendered and no reference image is made.
+
+The sampled modes' predictions are the Monte Carlo √(Var/N) law times a factor per mode
+(`SAMPLED_FACTOR`) and (N/4)^-STRATIFICATION: the renderer's stratified sets and
+mip-filtered lookups converge faster than independent samples. The factors and the exponent
+were calibrated once, by hand, on the shipped venice map with a Lambertian and Blinn–Phong
+n = 100 (measured against the quadrature at 4–1024 samples); the benchmark's other 30 pairs
+were not used (venice is also one of its maps). SH adds its tables' own error (`SH_TABLE_ERROR`), a floor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from brdflab.errors import BRDFLabError
+from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
+from brdflab.lighting.envmap import EnvironmentMap
+
+DEFAULT_TOLERANCE = 0.02
+SH_ORDERS = (2, 3, 4, 6, 8)
+SAMPLE_COUNTS = (4, 16, 64, 256, 1024)
+SAMPLED_FACTOR = {"fis": 0.5, "mis": 0.65}
+STRATIFICATION = 0.25  # the sampled modes' error falls as N^-(0.5 + this): stratified sets, filtering
+SH_TABLE_ERROR = 0.005
+# milliseconds per 128² reference-view frame on the machine the lab was measured on
+# (llvmpipe; docs/bench/lighting_auto.json has this machine's own): only the order matters
+FRAME_COST_MS = {"prefiltered": lambda s: 2.5, "sh": lambda L: 0.28 * L**4,
+                 "fis": lambda n: 1.7 * n, "mis": lambda n: 2.6 * n}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    mode: str
+    setting: int | None  # SH order or sample count; None for prefiltered
+    predicted_error: float
+    cost_ms: float
+    reason: str
+
+    @property
+    def label(self) -> str:
+        return self.mode if self.setting is None else f"{self.mode} {'L' if self.mode == 'sh' else 'n'}={self.setting}"
+
+
+@dataclass
+class LightingChoice:
+    """The chosen setting, its predicted error, why, and every candidate weighed."""
+
+    mode: str
+    setting: int | None
+    predicted_error: float
+    tolerance: float
+    within: bool
+    reasons: list[str]
+    candidates: list[Candidate] = field(default_factory=list)
+
+    def render_settings(self) -> dict:
+        """What `RenderSettings` / the renderer need: the mode, samples and SH order."""
+        return {"mode": self.mode, "samples": self.setting if self.mode in ("fis", "mis") else 1,
+                "sh_order": self.setting if self.mode == "sh" else None}
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["candidates"] = [{**asdict(c), "label": c.label} for c in self.candidates]
+        return d
+
+
+def choose_lighting(source, env: EnvironmentMap, tolerance: float = DEFAULT_TOLERANCE,
+                    proxy=None) -> LightingChoice:
+    """The cheapest candidate predicted within `tolerance` (relative RMSE, reference view).
+    `proxy`: the analytic lobes the renderer samples and prefilters a measured source with
+    (`sources.proxy.proxy_lobes`, fitted here if not given); analytic sources are their own."""
+    from brdflab.sources.proxy import proxy_lobes
+
+    if not (0.0 < tolerance < 1.0):
+        raise BRDFLabError(f"tolerance {tolerance!r}: expected a relative error between 0 and 1 (e.g. 0.02)")
+    pilot = make_pilot(source, env)
+    proxy = proxy if proxy is not None else proxy_lobes(source)
+    candidates = sorted(predict_all(proxy, pilot), key=lambda c: c.cost_ms)
+    within = [c for c in candidates if c.predicted_error <= tolerance]
+    chosen = within[0] if within else min(candidates, key=lambda c: c.predicted_error)
+    cheaper = [c for c in candidates if c.cost_ms < chosen.cost_ms]
+    reasons = [f"{c.label}: predicted {100 * c.predicted_error:.1f} % > {100 * tolerance:g} % ({c.reason})"
+               for c in cheaper]
+    reasons.append(f"chose {chosen.label}: predicted {100 * chosen.predicted_error:.2f} % "
+                   f"{'≤' if within else '> (none is predicted within)'} {100 * tolerance:g} % ({chosen.reason})")
+    reasons.insert(0, map_character(pilot))
+    return LightingChoice(chosen.mode, chosen.setting, chosen.predicted_error, tolerance, bool(within),
+                          reasons, candidates)
+
+
+def map_character(pilot: Pilot) -> str:
+    """The map's brightest texels' share of its power: a small bright source makes BRDF
+    sampling and low SH orders fail."""
+    power = pilot.radiance * pilot.solid
+    top = np.sort(power)[::-1]
+    k = max(1, len(top) // 100)
+    return f"map: its brightest 1 % of texels carry {100 * top[:k].sum() / max(top.sum(), 1e-300):.0f} % of its power"
+
+
+def predict_all(proxy, pilot: Pilot) -> list[Candidate]:
+    """Every candidate with its predicted error and frame cost (`proxy`: the analytic lobes
+    the renderer draws the source with where it cannot use measured data directly)."""
+    out = [Candidate("prefiltered", None, prefiltered_error(proxy, pilot), FRAME_COST_MS["prefiltered"](None),
+                     "split sum: lobe shape at n = v, equivalent roughness")]
+    for order in SH_ORDERS:
+        truncated = truncation_error(pilot, order)
+        err = float(np.hypot(truncated, SH_TABLE_ERROR))
+        out.append(Candidate("sh", order, err, FRAME_COST_MS["sh"](order),
+                             f"map × lobe energy beyond order {order}: {100 * truncated:.1f} %"))
+    pdf_brdf = brdf_pdf(proxy, pilot)
+    pdf_env = environment_pdf(pilot)
+    for mode, pdf in (("fis", pdf_brdf), ("mis", 0.5 * pdf_brdf + 0.5 * pdf_env[:, None])):
+        for n in SAMPLE_COUNTS:
+            err = SAMPLED_FACTOR[mode] * pilot.sampled_error(pdf, n) * (n / 4) ** -STRATIFICATION
+            out.append(Candidate(mode, n, err, FRAME_COST_MS[mode](n),
+                                 f"one-sample variance over {n} stratified samples"))
+    return out
+
+
+def truncation_error(pilot: Pilot, order: int) -> float:
+    """The SH mode's error from truncating the map (equivalently the lobe) at `order`."""
+    from brdflab.lighting import sh
+
+    coefficients = sh.project_environment(pilot.env, order)
+    approx = sh.evaluate(coefficients, pilot.directions)[:, :3] @ LUMINANCE
+    return pilot.relative_rmse(np.maximum(pilot.estimate(approx), 0.0))
+
+
+def prefiltered_error(proxy, pilot: Pilot) -> float:
+    """The split sum's error at the pilot pixels: the renderer's NumPy twin on the pilot map,
+    drawing `proxy` (a measured source's fitted lobes, as the renderer does)."""
+    from brdflab.lighting.auto_pilot import PILOT_GRID
+    from brdflab.lighting.reference_view import sphere_view
+    from brdflab.lighting.split_sum import prefiltered_image
+
+    image = prefiltered_image(proxy, pilot.env, PILOT_GRID, PILOT_GRID)
+    inside = sphere_view(PILOT_GRID, PILOT_GRID).inside
+    return pilot.relative_rmse(image[inside] @ LUMINANCE)
+
+
+def brdf_pdf(material, pilot: Pilot) -> np.ndarray:
+    """The renderer's BRDF sampling density (texels, pixels): the lobes it samples (a
+    measured source's proxy) mixed by their sample shares; lobes without a sampler draw
+    cosine-weighted."""
+    from brdflab.lighting.sampling_sets import lobe_shares
+
+    wo = np.broadcast_to(pilot.wo[None], pilot.local.shape)
+    pdf = np.zeros(pilot.local.shape[:2])
+    for share, lobe in zip(lobe_shares(material), material.lobes):
+        if lobe.model.samplable:
+            pdf += share * lobe.model.pdf(pilot.local, wo, lobe.params)
+        else:
+            pdf += share * np.maximum(pilot.local[..., 2], 0.0) / np.pi
+    return pdf
+
+
+def environment_pdf(pilot: Pilot) -> np.ndarray:
+    """The map's luminance density per solid angle (texels,), as MIS draws from it."""
+    lum = np.maximum(pilot.radiance, 0.0)
+    total = (lum * pilot.solid).sum()
+    return lum / total if total > 0 else np.full_like(lum, 1.0 / (4 * np.pi))
