@@ -4,7 +4,6 @@ result (XML of the source, then the table) atomically as it arrives."""
 from __future__ import annotations
 
 import logging
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -17,9 +16,7 @@ from brdflab.batch.table import CSV_NAME, PARQUET_NAME, ResultsTable
 from brdflab.batch.tasks import (FitTask, TaskOutcome, base_row, discover_sources, make_tasks, one_line,
                                  options_dict, run_task)
 from brdflab.errors import BRDFLabError
-
-# one BLAS/OpenMP thread per worker process: a worker runs one fit at a time, the processes share the cores
-ONE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+from brdflab.study.workers import ONE_THREAD, core_count  # one BLAS thread per worker; the cores we may use
 
 
 @dataclass
@@ -73,7 +70,7 @@ def open_client(settings: BatchSettings):
             return Client(settings.scheduler, timeout="10s"), None
         except (OSError, TimeoutError, ValueError) as e:
             raise BRDFLabError(f"cannot reach the scheduler: {one_line(e)}", settings.scheduler) from None
-    cluster = local_cluster(settings.workers or len(os.sched_getaffinity(0)))
+    cluster = local_cluster(settings.workers or core_count())
     return Client(cluster), cluster
 
 

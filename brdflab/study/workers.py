@@ -13,6 +13,8 @@ from collections.abc import Callable, Sequence
 from contextlib import contextmanager
 from multiprocessing import get_context
 
+# one BLAS/OpenMP thread per worker process (the batch's Dask workers too): a worker runs one
+# fit at a time, the processes share the cores
 ONE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
