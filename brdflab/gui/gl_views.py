@@ -169,8 +169,7 @@ class ObjectView(_GLView):
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
         self._pool = None  # a worker process for SH tables (NumPy in a thread held the GIL for seconds)
-        self._table_job = None
-        self._stack_job = None  # the prefiltered mode's stack, built in the same worker
+        self._build_job = None  # (future, remember) of an SH table or prefiltered stack being built
         self.settings = RenderSettings(reference_view=False, samples=256)
         self.exposure = 0.0
         self.gamma = 0.0  # 0: sRGB
@@ -209,7 +208,7 @@ class ObjectView(_GLView):
 
         self._timer.stop()
         stop_pool(self._pool)
-        self._pool, self._table_job, self._stack_job = None, None, None
+        self._pool, self._build_job = None, None
 
     def hideEvent(self, event) -> None:
         """A hidden (or closing) view refines nothing: its context may be on its way out."""
@@ -274,47 +273,42 @@ class ObjectView(_GLView):
     def samples_done(self) -> int:
         return 0 if self._progressive is None else self._progressive.samples
 
-    def _table_pending(self) -> bool:
-        """SH mode: build the BRDF table in a worker thread; True while it is not ready."""
+    def _prepared_elsewhere(self) -> bool:
+        """SH tables and prefiltered stacks take seconds of NumPy: build what the current mode
+        needs in the worker process (one job at a time); True while it is not ready."""
         from brdflab.gui.background import worker_pool
+
+        if self._build_job is not None and self._build_job[0].done():
+            (job, remember), self._build_job = self._build_job, None
+            self.busy.emit("")
+            remember(job.result())  # a failed build raises here, where it is reported
+        need = self._still_needed()
+        if need is None:
+            return False
+        if self._build_job is None:
+            build, args, remember, message = need
+            if self._pool is None:
+                self._pool = worker_pool()
+            self._build_job = (self._pool.submit(build, *args), remember)
+            self.busy.emit(message)
+        QTimer.singleShot(100, self._refine)
+        return True
+
+    def _still_needed(self):
+        """What the current mode cannot draw without: (build, args, remember, message), or None."""
+        from functools import partial
+
+        from brdflab.lighting.prefilter import build_stack, map_key, remember_stack
         from brdflab.lighting.sh_tables import brdf_table, remember_table
 
         r = self.renderer
-        if self._table_job is not None and self._table_job[0].done():
-            (job, source, order), self._table_job = self._table_job, None
-            self.busy.emit("")
-            remember_table(source, order, job.result())  # a failed build raises here, where it is reported
-        if self.settings.mode != "sh" or r.sh_table_ready():
-            return False
-        if self._table_job is None:
+        if self.settings.mode == "sh" and not r.sh_table_ready():
             source = r.source if r.source is not None else r.material
-            if self._pool is None:
-                self._pool = worker_pool()
-            self._table_job = (self._pool.submit(brdf_table, source, r.sh_order), source, r.sh_order)
-            self.busy.emit(f"building the order-{r.sh_order} SH table…")
-        QTimer.singleShot(100, self._refine)
-        return True
-
-    def _stack_pending(self) -> bool:
-        """Prefiltered mode: build the map's stack in the worker process (seconds of NumPy);
-        True while it is not ready."""
-        from brdflab.gui.background import worker_pool
-        from brdflab.lighting.prefilter import build_stack, map_key, remember_stack
-
-        r = self.renderer
-        if self._stack_job is not None and self._stack_job.done():
-            job, self._stack_job = self._stack_job, None
-            self.busy.emit("")
-            remember_stack(job.result())  # a failed build raises here, where it is reported
-        if self.settings.mode != "prefiltered" or r.environment is None or r.prefiltered_ready():
-            return False
-        if self._stack_job is None:
-            if self._pool is None:
-                self._pool = worker_pool()
-            self._stack_job = self._pool.submit(build_stack, r.environment, map_key(r.environment))
-            self.busy.emit("prefiltering the environment map…")
-        QTimer.singleShot(100, self._refine)
-        return True
+            return (brdf_table, (source, r.sh_order), partial(remember_table, source, r.sh_order),
+                    f"building the order-{r.sh_order} SH table…")
+        if self.settings.mode == "prefiltered" and r.environment is not None and not r.prefiltered_ready():
+            return build_stack, (r.environment, map_key(r.environment)), remember_stack, "prefiltering the environment map…"
+        return None
 
     def _refine(self) -> None:
         """Render more samples, outside paint events (Qt's paint-time GL state is not
@@ -325,7 +319,7 @@ class ObjectView(_GLView):
         w, h = self.pixel_size()
         self.makeCurrent()
         try:
-            if self._table_pending() or self._stack_pending():
+            if self._prepared_elsewhere():
                 return
             if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
                 self._release(self._progressive, self._progressive_b)
