@@ -65,9 +65,7 @@ class Pilot:
 
 def pilot_map(env: EnvironmentMap) -> EnvironmentMap:
     """The map area-averaged to PILOT_MAP (or the largest even divisors below it)."""
-    w = max(d for d in range(1, min(PILOT_MAP[0], env.width) + 1) if env.width % d == 0)
-    h = max(d for d in range(1, min(PILOT_MAP[1], env.height) + 1) if env.height % d == 0)
-    return env.downsampled(w, h)
+    return env.downsampled_within(*PILOT_MAP)
 
 
 def pilot_pixels():

@@ -59,6 +59,13 @@ class EnvironmentMap:
         area = np.broadcast_to(solid, (self.height, self.width)).reshape(height, fy, width, fx).sum(axis=(1, 3))
         return EnvironmentMap((weighted / area[:, :, None]).astype(np.float32), self.name, self.path)
 
+    def downsampled_within(self, width: int, height: int) -> "EnvironmentMap":
+        """`downsampled` to the largest sizes of at most width × height that divide the map's
+        own evenly (a 1000-wide map goes to 125, not 128)."""
+        w = max(d for d in range(1, min(width, self.width) + 1) if self.width % d == 0)
+        h = max(d for d in range(1, min(height, self.height) + 1) if self.height % d == 0)
+        return self.downsampled(w, h)
+
     def rotated(self, yaw_degrees: float) -> "EnvironmentMap":
         """The map turned about +Y (texel columns rolled; exact for multiples of a texel)."""
         shift = int(round(yaw_degrees / 360.0 * self.width))

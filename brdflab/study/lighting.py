@@ -144,12 +144,11 @@ def study_maps(quick: bool, skipped: list[dict]) -> list[tuple[str, str, Environ
 
 def reduced(env: EnvironmentMap) -> EnvironmentMap:
     """The map area-averaged to 128 × 64 (or the largest sizes below that divide it evenly)."""
-    width = max(d for d in range(1, min(REDUCED[0], env.width) + 1) if env.width % d == 0)
-    height = max(d for d in range(1, min(REDUCED[1], env.height) + 1) if env.height % d == 0)
-    if width < 16 or height < 8:
+    small = env.downsampled_within(*REDUCED)
+    if small.width < 16 or small.height < 8:
         raise BRDFLabError(f"the {env.width}×{env.height} map cannot be reduced evenly for the lighting study "
                            "(its sides have no divisors of at least 16 × 8)", env.path)
-    return env.downsampled(width, height)
+    return small
 
 
 # --- measuring -------------------------------------------------------------------------------
