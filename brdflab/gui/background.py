@@ -201,6 +201,7 @@ def _run_study(out_dir: str, part: str, scene: dict, messages, cancel) -> None:
     """The child's side of StudyProcess: one study part on the window's scene, quick sizes."""
     from pathlib import Path
 
+    from brdflab.errors import BRDFLabError
     from brdflab.study.framework import StudyContext, run_study
 
     try:
@@ -209,8 +210,10 @@ def _run_study(out_dir: str, part: str, scene: dict, messages, cancel) -> None:
         result = run_study(Path(out_dir), context, [part])
         messages.put(("finished", {"charts": result.charts[part], "numbers": result.numbers[part],
                                    "seconds": result.seconds[part], "stopped": cancel.is_set()}))
+    except BRDFLabError as e:
+        messages.put(("failed", str(e)))
     except Exception as e:  # a failed study is reported in the panel, never raised in the window
-        messages.put(("failed", f"{type(e).__name__}: {e}" if not hasattr(e, "path") else str(e)))
+        messages.put(("failed", f"{type(e).__name__}: {e}"))
 
 
 class StudyProcess(ChildJob):
