@@ -13,8 +13,10 @@ when the next rung's best held-back error does not improve on the current pick b
 than T (relative).
 
 To cost less than fitting everything, Auto screens each rung first: every candidate is
-fitted quickly (a quarter of the fitted samples, from its start alone, few steps), and only those near the screening's best (see
-`screen_margin`) are fitted fully, from the same start as without screening.
+fitted quickly (a quarter of the fitted samples, from its start alone, few steps), and only
+those near the screening's best (see `screen_margin`), or whose screen is inconclusive (no
+better than the rung's base refitted the same quick way), are fitted fully, from the same
+start as without screening.
 `exhaustive=True` fully fits every candidate of every rung, past the stop too: the
 reference Auto is checked against (`benchmarks/fit_auto.py`).
 """
@@ -188,15 +190,25 @@ def _screen(rung: list[Candidate], base: Candidate, fitted: SampleSet, held_back
             options: FitOptions, tolerance: float) -> list[Candidate]:
     """Fit every candidate quickly (a quarter of the fitted samples, no restarts, few
     steps: fit time is mostly restarts and steps, not samples); the ones worth a full fit:
-    those whose held-back error there is within `screen_margin` of the best, and at least
-    the SCREEN_KEEP best."""
+    those whose held-back error there is within `screen_margin` of the best, at least
+    the SCREEN_KEEP best, and every one whose screen is inconclusive (no better than the
+    base's own quick refit)."""
     small = fitted.subset(max(SCREEN_MIN_SAMPLES, fitted.size // 4), seed=SPLIT_SEED)
     quick = replace(options, restarts=False, max_iterations=min(options.max_iterations, SCREEN_ITERATIONS))
     for c in rung:
         c.screen_error = _fit(c, base, small, held_back, combination, quick)[1]
+    # the base screened the same way: a candidate whose screen does not beat it learnt nothing
+    # from its quick fit (its new lobe stuck at the start, or the small set misled it), so
+    # its screen cannot rank it: it is fully fitted rather than dropped
+    base_again = Candidate(base.rung, base.lobes, base.parameters, base.evaluation_ns)
+    base_screen = _fit(base_again, base, small, held_back, combination, quick)[1]
+    for c in rung:
+        c.seconds += base_again.seconds / len(rung)
+        c.cpu_seconds += base_again.cpu_seconds / len(rung)
     ranked = sorted(rung, key=lambda c: (c.screen_error, c.lobes))
     keep = {id(c) for c in ranked[:SCREEN_KEEP]}
     keep |= {id(c) for c in rung if not improves(c.screen_error, ranked[0].screen_error, screen_margin(tolerance))}
+    keep |= {id(c) for c in rung if not c.screen_error < base_screen}
     for c in rung:
         if id(c) not in keep:
             c.status = "screened out"
