@@ -1,6 +1,6 @@
 """Auto fitting against an exhaustive run over the same ladder, on the shared MERL slices.
 
-    python benchmarks/fit_auto.py [--split N] [--tolerance T] [--slices a,b,...] [--budget S] [--json OUT]
+    python benchmarks/fit_auto.py [--split N] [--tolerance T] [--slices a,b,...] [--jobs J] [--budget S] [--json OUT]
 
 Per slice, two independent runs of `brdflab.fitting.auto.auto_fit`: Auto (screens each
 rung, stops when a rung no longer pays) and exhaustive (fully fits every candidate of every
@@ -10,8 +10,9 @@ error within T of the best candidate of the exhaustive run, with no more paramet
 that best candidate (the fewest parameters of any exhaustive candidate within T of the best
 is reported too), and
 Auto's total CPU time is below the exhaustive run's. CPU time (not wall time) is
-compared: the machine is shared, and the runs are single-threaded. The JSON is rewritten
-after every slice, so a run cut short by `--budget` (seconds) keeps what it finished.
+compared: the machine is shared, and the runs are single-threaded (`--jobs J` runs J
+slices at once, one process and one BLAS thread each). The JSON is rewritten after every
+slice, so a run cut short by `--budget` (seconds) keeps what it finished.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from pathlib import Path
 from brdflab.fitting.auto import DEFAULT_TOLERANCE, auto_fit, improves
 from brdflab.fitting.samples import samples_of
 from brdflab.sources.measured import read_slice
+from brdflab.study.workers import run_jobs
 
 DATA = Path(os.environ.get("BRDFLAB_SHARED", Path(__file__).resolve().parents[2] / "shared")) / "data"
 SLICES = DATA / "merl_slices"
@@ -72,31 +74,39 @@ def judge(auto: dict, exhaustive: dict, tolerance: float) -> dict:
             "hit": within and params_ok and faster, "why_missed": "; ".join(why)}
 
 
+def run_slice(job: tuple[str, float, int]) -> dict:
+    """Auto and the exhaustive run on one slice, judged (a worker process's job)."""
+    name, tolerance, split = job
+    samples = samples_of(read_slice(SLICES / f"{name}.slice"))
+    auto = auto_fit(samples, tolerance, split=split).as_dict()
+    exhaustive = auto_fit(samples, tolerance, split=split, exhaustive=True).as_dict()
+    return {"slice": name, **judge(auto, exhaustive, tolerance), "auto": auto, "exhaustive": exhaustive}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--split", type=int, default=5_000, help="samples fitted (as many held back)")
     ap.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE)
     ap.add_argument("--slices", help="comma-separated slice names (default: every shared slice)")
+    ap.add_argument("--jobs", type=int, default=1, help="slices run at once (processes)")
     ap.add_argument("--budget", type=float, default=float("inf"), help="stop starting slices after this many seconds")
     ap.add_argument("--json", default=str(Path(__file__).resolve().parents[1] / "docs" / "bench" / "fit_auto.json"))
     args = ap.parse_args()
     names = sorted(p.stem for p in SLICES.glob("*.slice"))
     todo = args.slices.split(",") if args.slices else spread(names)
     started = time.time()
-    rows = []
-    for name in todo:
-        if time.time() - started > args.budget:
-            break
-        samples = samples_of(read_slice(SLICES / f"{name}.slice"))
-        auto = auto_fit(samples, args.tolerance, split=args.split).as_dict()
-        exhaustive = auto_fit(samples, args.tolerance, split=args.split, exhaustive=True).as_dict()
-        rows.append({"slice": name, **judge(auto, exhaustive, args.tolerance), "auto": auto, "exhaustive": exhaustive})
-        r = rows[-1]
-        print(f"{name}: {'hit' if r['hit'] else 'MISS'} pick {r['pick']} ({r['pick_parameters']} p, {r['pick_error']:.4g}) "
-              f"best {r['best']} ({r['best_parameters']} p, {r['best_error']:.4g}); CPU {r['auto_cpu_s']:.1f} s "
-              f"against {r['exhaustive_cpu_s']:.1f} s {r['why_missed']}", flush=True)
-        summary = {"tolerance": args.tolerance, "split": args.split, "metric": "Ngan", "slices_run": len(rows),
-                   "slices_available": len(names), "hits": sum(r["hit"] for r in rows),
+    rows: list[dict] = []
+
+    def finished(r: dict) -> None:
+        rows.append(r)
+        print(f"[{len(rows)}/{len(todo)}] {r['slice']}: {'hit' if r['hit'] else 'MISS'} pick {r['pick']} ({r['pick_parameters']} p, "
+              f"{r['pick_error']:.4g}) best {r['best']} ({r['best_parameters']} p, {r['best_error']:.4g}); CPU "
+              f"{r['auto_cpu_s']:.1f} s against {r['exhaustive_cpu_s']:.1f} s {r['why_missed']}", flush=True)
+        write(rows)
+
+    def write(rows: list[dict]) -> None:
+        summary = {"tolerance": args.tolerance, "split": args.split, "metric": "Ngan", "jobs": args.jobs,
+                   "slices_run": len(rows), "slices_available": len(names), "hits": sum(r["hit"] for r in rows),
                    "within_tolerance": sum(r["within_tolerance"] for r in rows),
                    "parameters_ok": sum(r["parameters_ok"] for r in rows), "faster": sum(r["faster"] for r in rows),
                    "auto_cpu_s_total": sum(r["auto_cpu_s"] for r in rows),
@@ -106,6 +116,9 @@ def main() -> None:
         tmp = Path(args.json).with_suffix(".json.tmp")
         tmp.write_text(json.dumps(summary, indent=1))
         os.replace(tmp, args.json)
+
+    run_jobs(run_slice, [(n, args.tolerance, args.split) for n in todo], args.jobs, lambda done, total: None,
+             lambda: time.time() - started > args.budget, on_result=finished)
 
 
 if __name__ == "__main__":

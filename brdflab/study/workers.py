@@ -42,15 +42,18 @@ def _one_blas_thread():
 
 
 def run_jobs(fn: Callable, jobs: Sequence, workers: int, progress: Callable[[int, int], None],
-             cancelled: Callable[[], bool]) -> list:
-    """fn(job) for every job (fn importable at module level); `progress(done, total)`
-    after each. Stops early (returning what is done) once `cancelled()` is true."""
+             cancelled: Callable[[], bool], on_result: Callable[[object], None] | None = None) -> list:
+    """fn(job) for every job (fn importable at module level); `on_result(result)`, then
+    `progress(done, total)` after each. Stops early (returning what is done) once
+    `cancelled()` is true."""
     results = []
     if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
             if cancelled():
                 break
             results.append(fn(job))
+            if on_result is not None:
+                on_result(results[-1])
             progress(len(results), len(jobs))
         return results
     with _one_blas_thread():
@@ -58,6 +61,8 @@ def run_jobs(fn: Callable, jobs: Sequence, workers: int, progress: Callable[[int
     try:
         for row in pool.imap(fn, jobs, chunksize=1):
             results.append(row)
+            if on_result is not None:
+                on_result(row)
             progress(len(results), len(jobs))
             if cancelled():
                 break
