@@ -7,7 +7,9 @@ For every (material, map) pair of eight of the lighting study's material classes
 measured MERL slice, sharp Blinn–Phong and Cook–Torrance lobes, an anisotropic Ward, a
 Lambertian) under its three real maps and the shared forest map, with the map area-averaged to 128 × 64 as the
 study does: `choose_lighting` picks a setting from the pilot alone; then every candidate is
-rendered (reference view, 48²) and scored against the texel quadrature (`environment_image`),
+rendered (reference view, 48²) and scored against the texel quadrature (`environment_image`;
+where its own floor exceeds a quarter of the tolerance, the lobe is narrower than the
+texels and `refined_environment_image` subdivides the texels near each mirror direction),
 and timed (one 64² frame per material and setting, the study's `frame_ms`). Reported per
 pair: the choice, its predicted and measured error, whether it met the tolerance, the
 cheapest setting that actually met it (by measured frame time) and the cost ratio; overall:
@@ -30,24 +32,32 @@ from brdflab.io.atomic import atomic_write
 from brdflab.io.resources import shared_data_dir
 from brdflab.lighting.envmap import load_environment
 from brdflab.lighting.auto import DEFAULT_TOLERANCE, choose_lighting
-from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
+from brdflab.lighting.reference_view import environment_image, refined_environment_image, relative_rmse, sphere_view
 from brdflab.render.context import create_context
 from brdflab.render.object_view import ObjectRenderer, RenderSettings
 from brdflab.sources.proxy import proxy_lobes
 from brdflab.study.lighting import (MEASURED_CLASS, build_sh_table, frame_ms, material_classes, reduced,
-                                    reference_floor, study_maps)
+                                    reference_floor, refined_floor, study_maps)
 
 EXTRA_MAP = "envmaps/forest.exr"  # a fourth map (shared data): 8 materials × 4 maps = 32 pairs
 SIZE = 48  # error images
 FRAME = 64  # timed frames (what matters is their ratio)
 
 
-def measure_material(renderer, source, maps, candidates) -> tuple[dict, dict]:
+def reference(source, small, tolerance: float) -> tuple[np.ndarray, float, str]:
+    """The reference image, its floor and its kind: texel centres where they resolve a
+    quarter of the tolerance, else the texels near the mirror direction subdivided."""
+    floor = reference_floor(source, small)
+    if floor <= tolerance / 4:
+        return environment_image(source, small, SIZE, SIZE), floor, "texel centres"
+    return refined_environment_image(source, small, SIZE, SIZE), refined_floor(source, small), "subdivided"
+
+
+def measure_material(renderer, source, maps, candidates, references) -> tuple[dict, dict]:
     """Frame ms per candidate label, and measured error per (map, label)."""
     renderer.set_source(source)
     inside = sphere_view(SIZE, SIZE).inside
     ms, errors = {}, {}
-    references = {name: environment_image(source, small, SIZE, SIZE) for name, small in maps.items()}
     for c in candidates:
         if c.mode == "sh":
             build_sh_table(source, c.setting)
@@ -58,7 +68,7 @@ def measure_material(renderer, source, maps, candidates) -> tuple[dict, dict]:
             if k == 0:
                 ms[c.label] = frame_ms(renderer, RenderSettings(c.mode, FRAME, FRAME, samples=samples))
             image = renderer.render(RenderSettings(c.mode, SIZE, SIZE, samples=samples))
-            errors[(name, c.label)] = relative_rmse(image, references[name], inside)
+            errors[(name, c.label)] = relative_rmse(image, references[name][0], inside)
     return ms, errors
 
 
@@ -84,7 +94,8 @@ def run(tolerance: float, quick: bool, json_path: Path) -> dict:
             t0 = time.perf_counter()
             choices[name] = (choose_lighting(source, small, tolerance, proxy), time.perf_counter() - t0)
         candidates = next(iter(choices.values()))[0].candidates  # the same settings for every map
-        ms, errors = measure_material(renderer, source, maps, candidates)
+        references = {name: reference(source, small, tolerance) for name, small in maps.items()}
+        ms, errors = measure_material(renderer, source, maps, candidates, references)
         for name, small in maps.items():
             choice, seconds = choices[name]
             label = next(c.label for c in candidates if (c.mode, c.setting) == (choice.mode, choice.setting))
@@ -94,7 +105,7 @@ def run(tolerance: float, quick: bool, json_path: Path) -> dict:
                    "choice_ms": ms[label], "choose_seconds": seconds,
                    "cheapest_meeting": meeting[0][1] if meeting else None,
                    "cheapest_ms": meeting[0][0] if meeting else None,
-                   "floor": reference_floor(source, small),
+                   "floor": references[name][1], "reference": references[name][2],
                    "sweep": [{"label": c.label, "ms": ms[c.label], "predicted": c.predicted_error,
                               "measured": errors[(name, c.label)]} for c in choice.candidates],
                    "reasons": choice.reasons}

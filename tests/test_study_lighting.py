@@ -9,6 +9,7 @@ import pytest
 from brdflab.errors import BRDFLabError
 from brdflab.lighting.envmap import constant
 from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.models import get_model
 from brdflab.render import object_view
 from brdflab.study import lighting
 from brdflab.study.framework import StudyContext, run_study
@@ -147,6 +148,27 @@ def test_the_reference_resolves_broad_lobes_and_says_when_a_lobe_falls_between_t
     small = lighting.reduced(load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"))
     assert lighting.reference_floor(lighting.MATERIAL_CLASSES["Lambertian"](), small) < 0.005
     assert lighting.reference_floor(lighting.MATERIAL_CLASSES["Blinn-Phong n=10000"](), small) > 0.05
+
+
+def test_subdivided_reference_equals_splitting_every_texel_where_a_sharp_lobe_is():
+    """refined_environment_image against an independent route: the plain quadrature over a
+    map whose every texel is split 8 × 8 (the same radiance). A Blinn-Phong n=2000 lobe
+    (zero beyond the subdivided cone) must agree closely; texel centres alone must not."""
+    from brdflab.lighting.envmap import EnvironmentMap
+    from brdflab.lighting.reference_view import environment_image, refined_environment_image, relative_rmse, sphere_view
+
+    rng = np.random.default_rng(4)
+    data = rng.uniform(0.2, 1.0, (16, 32, 3)).astype(np.float32)
+    data[5, 9] = 400.0  # a sun, one texel
+    small = EnvironmentMap(data, "test")
+    material = AnalyticMaterial("sharp", "Linear", 3, [Lobe(get_model("BlinnPhong"), {"Exponent": 2000.0}, [1.0, 1.0, 1.0])])
+    inside = sphere_view(8, 8).inside
+    split = EnvironmentMap(np.repeat(np.repeat(data, 8, axis=0), 8, axis=1), "split")
+    truth = environment_image(material, split, 8, 8)
+    refined = refined_environment_image(material, small, 8, 8, subdivision=8)
+    assert relative_rmse(refined, truth, inside) < 1e-3
+    assert relative_rmse(environment_image(material, small, 8, 8), truth, inside) > 0.05
+    assert lighting.refined_floor(material, small) < lighting.reference_floor(material, small) / 5
 
 
 def test_maps_are_reduced_evenly_or_refused():

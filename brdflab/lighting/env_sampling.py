@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.lighting.envmap import EnvironmentMap, direction_to_uv
+from brdflab.lighting.envmap import EnvironmentMap, texel_of
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -41,10 +41,7 @@ class EnvironmentDistribution:
 
     def pdf(self, d: np.ndarray) -> np.ndarray:
         """Density per steradian of map directions d (..., 3) (+Y up, the map's own frame)."""
-        u, v = direction_to_uv(np.asarray(d, float))
-        cols = np.clip(np.floor(u * self.width).astype(int), 0, self.width - 1)
-        rows = np.clip(np.floor(v * self.height).astype(int), 0, self.height - 1)
-        return self.density[rows, cols]
+        return self.density[texel_of(d, self.height, self.width)]
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         """Map directions (n, 3) from uniform points u (n, 2) in [0, 1)²."""

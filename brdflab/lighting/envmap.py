@@ -78,6 +78,14 @@ def direction_to_uv(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, v
 
 
+def texel_of(d: np.ndarray, height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """(row, column) of the texel of a height × width lat-long map that holds each direction d (..., 3)."""
+    u, v = direction_to_uv(np.asarray(d, float))
+    cols = np.clip(np.floor(u * width).astype(int), 0, width - 1)
+    rows = np.clip(np.floor(v * height).astype(int), 0, height - 1)
+    return rows, cols
+
+
 def constant(value: float | tuple = 1.0, width: int = 64, height: int = 32) -> EnvironmentMap:
     return EnvironmentMap(np.broadcast_to(np.asarray(value, np.float32), (height, width, 3)).copy(), "constant")
 

@@ -152,16 +152,34 @@ def reduced(env: EnvironmentMap) -> EnvironmentMap:
 
 
 # --- measuring -------------------------------------------------------------------------------
+def split_texels(small: EnvironmentMap) -> EnvironmentMap:
+    """The same map with every texel split 2 × 2 (the same radiance, four times the quadrature points)."""
+    return EnvironmentMap(np.repeat(np.repeat(small.data, 2, axis=0), 2, axis=1), small.name, small.path)
+
+
 def reference_floor(source, small: EnvironmentMap) -> float:
     """How far the quadrature reference can be trusted: its relative change when every texel
     of the reduced map is split 2 × 2 (the same radiance, four times the quadrature points).
     Lobes narrower than a texel fall between texel centres: errors below this are not resolved."""
     from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
 
-    split = EnvironmentMap(np.repeat(np.repeat(small.data, 2, axis=0), 2, axis=1), small.name, small.path)
+    split = split_texels(small)
     coarse = environment_image(source, small, FLOOR_SIZE, FLOOR_SIZE)
     fine = environment_image(source, split, FLOOR_SIZE, FLOOR_SIZE)
     return relative_rmse(coarse, fine, sphere_view(FLOOR_SIZE, FLOOR_SIZE).inside)
+
+
+def refined_floor(source, small: EnvironmentMap) -> float:
+    """The same check for `refined_environment_image`: its relative change when every texel
+    of the map is split 2 × 2 and the near ones then subdivided a quarter as finely (parts
+    twice as large where the lobe is, texel centres four times as many elsewhere: an
+    estimate of both halves' error, conservative for the first)."""
+    from brdflab.lighting.reference_view import SUBDIVISION, refined_environment_image, relative_rmse, sphere_view
+
+    split = split_texels(small)
+    fine = refined_environment_image(source, small, FLOOR_SIZE, FLOOR_SIZE)
+    other = refined_environment_image(source, split, FLOOR_SIZE, FLOOR_SIZE, subdivision=SUBDIVISION // 4)
+    return relative_rmse(fine, other, sphere_view(FLOOR_SIZE, FLOOR_SIZE).inside)
 
 
 def frame_ms(renderer, settings) -> float:
