@@ -1,6 +1,7 @@
 """Auto fitting against an exhaustive run over the same ladder, on the shared MERL slices.
 
     python benchmarks/fit_auto.py [--split N] [--tolerance T] [--slices a,b,...] [--jobs J] [--budget S] [--json OUT]
+                                  [--resume]
 
 Per slice, two independent runs of `brdflab.fitting.auto.auto_fit`: Auto (screens each
 rung, stops when a rung no longer pays) and exhaustive (fully fits every candidate of every
@@ -12,7 +13,8 @@ is reported too), and
 Auto's total CPU time is below the exhaustive run's. CPU time (not wall time) is
 compared: the machine is shared, and the runs are single-threaded (`--jobs J` runs J
 slices at once, one process and one BLAS thread each). The JSON is rewritten after every
-slice, so a run cut short by `--budget` (seconds) keeps what it finished.
+slice, so a run cut short by `--budget` (seconds) keeps what it finished, and `--resume`
+runs only the slices the JSON does not have yet (same tolerance and split), keeping its rows.
 """
 
 from __future__ import annotations
@@ -91,11 +93,18 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="slices run at once (processes)")
     ap.add_argument("--budget", type=float, default=float("inf"), help="stop starting slices after this many seconds")
     ap.add_argument("--json", default=str(Path(__file__).resolve().parents[1] / "docs" / "bench" / "fit_auto.json"))
+    ap.add_argument("--resume", action="store_true", help="keep the JSON's rows and run the slices it lacks")
     args = ap.parse_args()
     names = sorted(p.stem for p in SLICES.glob("*.slice"))
     todo = args.slices.split(",") if args.slices else spread(names)
     started = time.time()
     rows: list[dict] = []
+    if args.resume and Path(args.json).is_file():
+        earlier = json.loads(Path(args.json).read_text())
+        if (earlier["tolerance"], earlier["split"]) != (args.tolerance, args.split):
+            raise SystemExit(f"{args.json}: made with another tolerance or split; not resumed")
+        rows = earlier["rows"]
+        todo = [n for n in todo if n not in {r["slice"] for r in rows}]
 
     def finished(r: dict) -> None:
         rows.append(r)
