@@ -388,7 +388,7 @@ class ObjectControls(QWidget):
         self.mode.addItems(["fis", "point", "sh", "prefiltered", "mis", "auto"])
         self.mode.setItemData(5, "the cheapest of prefiltered, SH and FIS / MIS predicted to stay within the tolerance "
                                  "for this material and map (computed in the background)", Qt.ToolTipRole)
-        self.tolerance = QDoubleSpinBox(minimum=0.1, maximum=50.0, value=100 * DEFAULT_TOLERANCE, decimals=1,
+        self.tolerance = QDoubleSpinBox(minimum=0.01, maximum=50.0, value=100 * DEFAULT_TOLERANCE, decimals=2,
                                         singleStep=0.5, suffix=" %", enabled=False)
         self.tolerance.setKeyboardTracking(False)
         self.tolerance.setToolTip("auto: the relative RMSE (reference view) the chosen lighting is predicted to stay within")
