@@ -81,6 +81,17 @@ def test_auto_lighting_draws_the_cores_choice_and_follows_the_material(window, q
     assert_shows_and_draws(qtbot, window, choose_lighting(window.workspace.original(), env, DEFAULT_TOLERANCE))
     assert sharp_note != default_note
 
+    # a broad lobe (SH's case on this map): the order shown is the order drawn; SH drawn
+    # self-shadowed is not what was predicted, and the note under it says so (unless not SH)
+    e.parameter_edited.emit(0, "Exponent", 2.0)
+    chosen_note(qtbot, window, sharp_note)
+    broad = choose_lighting(window.workspace.original(), env, DEFAULT_TOLERANCE)
+    assert_shows_and_draws(qtbot, window, broad)
+    c.sh_shadows.setChecked(True)  # and off again before the event loop draws with it
+    assert c.auto_caveat.isVisibleTo(c) == (broad.mode == "sh")
+    c.sh_shadows.setChecked(False)
+    assert not c.auto_caveat.isVisibleTo(c)
+
     # back to a chosen mode: the spin boxes are the user's again, the note and the banner go
     c.mode.setCurrentText("point")
     assert c.samples.isEnabled() and c.sh_order.isEnabled() and not c.tolerance.isEnabled()

@@ -8,8 +8,9 @@ from html import escape
 
 from brdflab.lighting.auto import Candidate, LightingChoice, choose_lighting
 
-# what the prediction assumes: the CLI refuses --mode auto with these; the window only says so
-PREDICTED_FOR = "the reference view's lighting: the map unturned, no SH self-shadowing, the dynamic SH variant"
+# what the prediction is made for (lighting/auto.py); the object view's mesh and camera approximate it
+PREDICTED_FOR = ("the reference view (a sphere seen under the unturned map), without SH self-shadowing, "
+                 "the dynamic SH variant")
 
 
 def choose_job(job: tuple) -> tuple[int, LightingChoice]:

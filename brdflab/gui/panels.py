@@ -353,6 +353,7 @@ SHOWN = {"original": "off", "fitted": "off", "original | fit": "split", "differe
 
 WARNING_STYLE = "color: #b03030; font-weight: bold"
 PENDING_STYLE = "color: #707070"
+CAVEAT_STYLE = "color: #a06000"
 
 
 class WrappedLabel(QLabel):
@@ -394,6 +395,10 @@ class ObjectControls(QWidget):
         self.tolerance.setToolTip("auto: the relative RMSE (reference view) the chosen lighting is predicted to stay within")
         self.auto_note = WrappedLabel()
         self.auto_note.setVisible(False)
+        self.auto_caveat = WrappedLabel()  # where the view departs from what the choice predicts for
+        self.auto_caveat.setStyleSheet(CAVEAT_STYLE)
+        self.auto_caveat.setVisible(False)
+        self._auto_mode: str | None = None  # the mode of the choice shown
         self.sh_order = QSpinBox(minimum=1, maximum=10, value=5)
         self.sh_shadows = QCheckBox("SH self-shadowing")
         self.sh_variant = QComboBox()
@@ -417,6 +422,7 @@ class ObjectControls(QWidget):
         form.addRow("lighting", self.mode)
         form.addRow("tolerance", self.tolerance)
         form.addRow(self.auto_note)
+        form.addRow(self.auto_caveat)
         form.addRow("samples", self.samples)
         form.addRow("SH order", self.sh_order)
         form.addRow("SH variant", self.sh_variant)
@@ -432,6 +438,8 @@ class ObjectControls(QWidget):
                 row.addWidget(w)
             form.addRow(row)
         self.mode.currentIndexChanged.connect(lambda _: self._auto_toggled())
+        self.sh_shadows.toggled.connect(lambda _: self._show_auto_caveat())
+        self.sh_variant.currentIndexChanged.connect(lambda _: self._show_auto_caveat())
         self.mode.currentIndexChanged.connect(lambda _: self.changed.emit())
         self.tolerance.valueChanged.connect(lambda _: self.changed.emit())
         self.samples.valueChanged.connect(lambda _: self.changed.emit())
@@ -454,6 +462,22 @@ class ObjectControls(QWidget):
             w.setEnabled(not self.auto)
         self.tolerance.setEnabled(self.auto)
         self.auto_note.setVisible(self.auto)
+        if not self.auto:
+            self._auto_mode = None
+        self._show_auto_caveat()
+
+    def _show_auto_caveat(self) -> None:
+        """Auto predicts plain SH lighting (the command line refuses the rest): say so when the
+        chosen SH mode is drawn self-shadowed or as a fixed variant."""
+        departs = []
+        if self._auto_mode == "sh" and self.sh_shadows.isChecked():
+            departs.append("SH self-shadowing is on")
+        if self._auto_mode == "sh" and self.sh_variant.currentText() != "dynamic":
+            departs.append(f"the SH variant is {self.sh_variant.currentText()}")
+        text = ("the prediction is for unshadowed, dynamic SH; here " + ", ".join(departs)
+                if self.auto and departs else "")
+        self.auto_caveat.setText(text)
+        self.auto_caveat.setVisible(bool(text))
 
     def show_auto_note(self, text: str, tooltip: str = "", style: str = "") -> None:
         """The line under the lighting choice: what auto chose (or is doing), and why."""
@@ -470,6 +494,8 @@ class ObjectControls(QWidget):
             if settings["sh_order"] is not None:
                 self.sh_order.setValue(settings["sh_order"])
         self.show_auto_note(f"{summary(choice)}\n{choice.reasons[0]}", details(choice), "" if choice.within else WARNING_STYLE)
+        self._auto_mode = choice.mode
+        self._show_auto_caveat()
 
     def light(self) -> tuple[float, float, float]:
         t, p = math.radians(self.light_theta.spin.value()), math.radians(self.light_phi.spin.value())
