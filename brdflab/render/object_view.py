@@ -433,10 +433,12 @@ class ObjectRenderer:
             self._mesh_vao[key] = self.ctx.vertex_array(prog, [])
         return self._mesh_vao[key]
 
-    def samples_texture(self, n: int, rotation: np.ndarray | None = None, mode: str = "fis") -> moderngl.Texture:
+    def samples_texture(self, n: int, rotation: np.ndarray | None = None,
+                        mode: str = "fis") -> tuple[moderngl.Texture, int]:
         """The sample set as an RGBA32F texture, SAMPLE_ROW samples per row, so that any
         count fits under GL's texture size limit (and with the exact lobe shares applied);
-        for MIS half of it drawn from the map (mis_sample_set)."""
+        for MIS half of it drawn from the map (mis_sample_set). With its size: at least one
+        sample per lobe, so a set may hold more than `n`."""
         if mode == "mis":
             data, fractions, self._env_fraction = mis_sample_set(self._shares, n, rotation)
         else:
@@ -451,7 +453,7 @@ class ObjectRenderer:
         padded[: len(data)] = data
         tex = self.ctx.texture((width, rows), 4, padded.tobytes(), dtype="f4")
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        return tex
+        return tex, len(data)
 
     # --- progressive refinement (the GUI) ----------------------------------------------------------
     def start_progressive(self, settings: RenderSettings) -> "Progressive":
@@ -533,7 +535,9 @@ class Progressive:
                 self.samples = 1
         else:
             rotation = self._rng.random(2) if self.steps or self._rotate_first else None
-            tex = r.samples_texture(samples, rotation, s.mode)
+            # every sample of the set, counted: a step of fewer samples than lobes once drew only
+            # its first (a Lambertian's) with the set's lobe shares, and lost the other lobes
+            tex, samples = r.samples_texture(samples, rotation, s.mode)
             footprint = self.samples + samples  # filter for all samples so far: the bias vanishes
             if reference:
                 _set_state(ctx, depth=False, blend=False)
