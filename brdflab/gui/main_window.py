@@ -634,13 +634,15 @@ class MainWindow(QMainWindow):
             self.set_warning("auto", None)
             return
         r = getattr(v, "renderer", None)  # none before OpenGL starts: the default scene asks again
+        unable = None
         if r is None or v.blank or r.source is None:
+            unable = ("auto: nothing to light", PENDING_STYLE)
+        elif r.environment is None:
+            unable = ("auto: no environment map to light with", WARNING_STYLE)
+        if unable is not None:
             self._auto_lighting_for = None
-            c.show_auto_note("auto: nothing to light", style=PENDING_STYLE)
-            return
-        if r.environment is None:
-            self._auto_lighting_for = None
-            c.show_auto_note("auto: no environment map to light with", style=WARNING_STYLE)
+            self.set_warning("auto", None)
+            c.show_auto_note(unable[0], style=unable[1])
             return
         key = (r.source, r.environment, c.tolerance.value())
         old = self._auto_lighting_for
