@@ -5,6 +5,7 @@ material or the tolerance changes. The independent route: `choose_lighting` call
 import os
 from html import escape
 
+import numpy as np
 import pytest
 
 from conftest import DATA, needs_shared
@@ -59,6 +60,16 @@ def test_auto_lighting_draws_the_cores_choice_and_follows_the_material(window, q
     default_note = chosen_note(qtbot, window)
     env = view.renderer.environment
     assert_shows_and_draws(qtbot, window, choose_lighting(window.workspace.original(), env, DEFAULT_TOLERANCE))
+    # once finished, the window's image is the offscreen render of those settings (whose error
+    # the choice predicts), however small the steps it was refined in
+    qtbot.waitUntil(lambda: view.samples_done >= view.settings.samples, timeout=120000)
+    view.makeCurrent()
+    p = view._progressive
+    shown = np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)
+    offscreen = view.renderer.render(p.settings)
+    view.doneCurrent()
+    print(f"{p.steps} steps for {p.samples} samples")
+    np.testing.assert_allclose(shown[::-1, :, :3] / p.samples, offscreen, rtol=1e-3, atol=1e-5)
 
     # a tolerance nothing meets: the best predicted is drawn, and the window says so
     c.tolerance.setValue(c.tolerance.minimum())
