@@ -387,8 +387,9 @@ class ObjectControls(QWidget):
         super().__init__()
         self.mode = QComboBox()
         self.mode.addItems(["fis", "point", "sh", "prefiltered", "mis", "auto"])
-        self.mode.setItemData(self.mode.findText("auto"), "the cheapest of prefiltered, SH and FIS / MIS predicted to stay within the tolerance "
-                                 "for this material and map (computed in the background)", Qt.ToolTipRole)
+        self.mode.setItemData(self.mode.findText("auto"), "the cheapest of prefiltered, SH and FIS / MIS predicted to "
+                              "stay within the tolerance for this material and map (chosen in the background)",
+                              Qt.ToolTipRole)
         self.tolerance = QDoubleSpinBox(minimum=0.01, maximum=50.0, value=100 * DEFAULT_TOLERANCE, decimals=2,
                                         singleStep=0.5, suffix=" %", enabled=False)
         self.tolerance.setKeyboardTracking(False)
