@@ -36,11 +36,11 @@ def summary(choice: LightingChoice) -> str:
 
 def details(choice: LightingChoice) -> str:
     """Every reason, then every candidate weighed (cheapest first) with its predicted error and
-    frame cost, the pick in bold — rich text, for the label's tooltip."""
+    modelled frame cost (FRAME_COST_MS: only their order matters), the pick in bold — rich text, for the label's tooltip."""
     pick, bold = chosen(choice), ' style="font-weight: bold"'
     rows = "".join(f"<tr{bold if c is pick else ''}><td>{escape(c.label)}</td>"
                    f"<td align=right>{100 * c.predicted_error:.2f} %</td><td align=right>{c.cost_ms:.1f} ms</td></tr>"
                    for c in choice.candidates)
     return ("<br>".join(escape(r) for r in choice.reasons) + f"<br><i>predicted for {escape(PREDICTED_FOR)}</i>"
             "<table cellspacing=0 cellpadding=2><tr><th align=left>candidate</th><th>predicted</th>"
-            f"<th>frame cost</th></tr>{rows}</table>")
+            f"<th>frame cost (model)</th></tr>{rows}</table>")
