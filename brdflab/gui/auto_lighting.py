@@ -36,7 +36,8 @@ def summary(choice: LightingChoice) -> str:
 
 def details(choice: LightingChoice) -> str:
     """Every reason, then every candidate weighed (cheapest first) with its predicted error and
-    modelled frame cost (FRAME_COST_MS: only their order matters), the pick in bold — rich text, for the label's tooltip."""
+    modelled frame cost (FRAME_COST_MS: only their order matters), the pick in bold — rich
+    text, for the label's tooltip."""
     pick, bold = chosen(choice), ' style="font-weight: bold"'
     rows = "".join(f"<tr{bold if c is pick else ''}><td>{escape(c.label)}</td>"
                    f"<td align=right>{100 * c.predicted_error:.2f} %</td><td align=right>{c.cost_ms:.1f} ms</td></tr>"
