@@ -24,10 +24,11 @@ from brdflab.workspace import OPEN_FILTER, Workspace
 from brdflab.io.atomic import atomic_write
 from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
+from brdflab.gui.auto_lighting import chosen, choose_job
 from brdflab.gui.background import FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
-from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, SHOWN, FittingPanel, LobeControls, MaterialEditor, ObjectControls,
-                                PlotsPanel, XmlView, auto_level_job, energy_summaries)
+from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
+                                MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
 
 LAYOUT_VERSION = 3  # 2: the lobe viewer became the central view; 3: the Charts dock
@@ -208,6 +209,13 @@ class MainWindow(QMainWindow):
         self._auto_level_job = LatestOnly(auto_level_job, self)
         self._auto_level_job.done.connect(self._auto_level_known)
         self._auto_level_job.failed.connect(lambda m: self.lobe_controls.auto_level_note.setText(f"failed: {m}"))
+        self._auto_lighting_for: tuple | None = None  # (source, map, tolerance) the last choice was asked for
+        self._auto_lighting_token = 0  # numbers the requests: an answer to an older one is dropped
+        self._auto_choice = None  # the lighting.auto.LightingChoice the object view draws with
+        self._auto_lighting_job = LatestOnly(choose_job, self)
+        self._auto_lighting_job.done.connect(self._auto_lighting_known)
+        self._auto_lighting_job.failed.connect(
+            lambda m: self.object_controls.show_auto_note(f"auto: the choice failed: {m}", style=WARNING_STYLE))
 
         self._xml_timer = QTimer(self, singleShot=True, interval=150)
         self._xml_timer.timeout.connect(self._refresh_xml)
@@ -545,6 +553,7 @@ class MainWindow(QMainWindow):
         self.object_view.blank = shown is None or (isinstance(shown, ws_ops.AnalyticMaterial) and not shown.lobes)
         if self.object_view.blank:  # an empty material is valid: nothing to shade
             self.object_view.update()
+            self._request_auto_lighting()
             return
 
         def apply():
@@ -555,6 +564,7 @@ class MainWindow(QMainWindow):
 
         self.object_view.when_ready(apply)
         self.object_view.restart()
+        self._request_auto_lighting()
 
     def _lobe_settings_changed(self) -> None:
         self.lobe_controls.apply(self.lobe_view.viewer.settings)
@@ -588,9 +598,18 @@ class MainWindow(QMainWindow):
         self._lobe_settings_changed()
 
     def _object_settings_changed(self) -> None:
+        self._apply_object_settings()
+        self._push_object_source()
+
+    def _apply_object_settings(self) -> None:
+        """The controls into the object view's settings; with auto, the mode is the choice's
+        (until the first choice arrives, the view keeps the mode it had)."""
         c, v = self.object_controls, self.object_view
         s = v.settings
-        s.mode = c.mode.currentText()
+        if not c.auto:
+            s.mode = c.mode.currentText()
+        elif self._auto_choice is not None:
+            s.mode = self._auto_choice.mode
         s.samples = c.samples.value()
         s.env_rotation = c.rotation.spin.value()
         s.light = c.light()
@@ -605,7 +624,56 @@ class MainWindow(QMainWindow):
 
         v.when_ready(apply_sh)
         v.reinhard = c.reinhard.isChecked()
-        self._push_object_source()
+
+    def _request_auto_lighting(self) -> None:
+        """Auto lighting: choose again (in a worker process; the newest request wins) when the
+        drawn source, the map or the tolerance changed — not when the choice itself did."""
+        c, v = self.object_controls, self.object_view
+        if not c.auto:
+            self._auto_lighting_for = self._auto_choice = None
+            self.set_warning("auto", None)
+            return
+        r = getattr(v, "renderer", None)  # none before OpenGL starts: the default scene asks again
+        unable = None
+        if r is None or v.blank or r.source is None:
+            unable = ("auto: nothing to light", PENDING_STYLE)
+        elif r.environment is None:
+            unable = ("auto: no environment map to light with", WARNING_STYLE)
+        if unable is not None:
+            self._auto_lighting_for = None
+            self.set_warning("auto", None)
+            c.show_auto_note(unable[0], style=unable[1])
+            return
+        key = (r.source, r.environment, c.tolerance.value())
+        old = self._auto_lighting_for
+        if old is not None and old[0] is key[0] and old[1] is key[1] and old[2] == key[2]:
+            return
+        self._auto_lighting_for = key
+        self._auto_lighting_token += 1
+        c.show_auto_note("auto: choosing the lighting for this material and map… (the view keeps its last "
+                         "setting meanwhile)", style=PENDING_STYLE)
+        # the renderer's own proxy lobes for a measured source, as the command line passes them
+        self._auto_lighting_job.request((self._auto_lighting_token, r.source, r.environment, key[2] / 100, r.material))
+
+    def _auto_lighting_known(self, result: tuple) -> None:
+        token, choice = result
+        c, v = self.object_controls, self.object_view
+        if token != self._auto_lighting_token or not c.auto:
+            return
+        self._auto_choice = choice
+        c.show_auto_choice(choice)
+        self.set_warning("auto", None if choice.within else
+                         f"Auto lighting: nothing is predicted within {100 * choice.tolerance:g} %; drawing the best "
+                         f"predicted, {chosen(choice).label} ({100 * choice.predicted_error:.1f} %)")
+        before = self._lighting_drawn()
+        self._apply_object_settings()
+        if self._lighting_drawn() != before:  # the same setting keeps its accumulated samples
+            v.restart()
+
+    def _lighting_drawn(self) -> tuple:
+        """The object view's lighting: mode, samples and (SH) the renderer's order."""
+        s, r = self.object_view.settings, self.object_view.renderer
+        return s.mode, s.samples, r.sh_order if s.mode == "sh" else None
 
     # --- files ------------------------------------------------------------------------------------
     def maybe_save(self) -> bool:
@@ -720,6 +788,7 @@ class MainWindow(QMainWindow):
         def apply(env) -> None:
             self.object_view.when_ready(lambda: self.object_view.renderer.set_environment(env))
             self.object_view.restart()
+            self._request_auto_lighting()
             self._map_note(env)
             self.statusBar().showMessage(f"environment {path}", 5000)
 
@@ -797,6 +866,7 @@ class MainWindow(QMainWindow):
         self.charts.shutdown()
         self._fits_energy_job.shutdown()
         self._auto_level_job.shutdown()
+        self._auto_lighting_job.shutdown()
         self.object_view.shutdown()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState(LAYOUT_VERSION))

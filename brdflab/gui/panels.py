@@ -30,7 +30,9 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from brdflab.gui.auto_lighting import details, summary
 from brdflab.gui.background import LatestOnly
+from brdflab.lighting.auto import DEFAULT_TOLERANCE
 from brdflab.material.albedo import energy_check
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
 from brdflab.fitting.lm import METRICS
@@ -349,8 +351,33 @@ class LobeControls(QWidget):
 SHOWN = {"original": "off", "fitted": "off", "original | fit": "split", "difference": "difference"}
 
 
+WARNING_STYLE = "color: #b03030; font-weight: bold"
+PENDING_STYLE = "color: #707070"
+CAVEAT_STYLE = "color: #a06000"
+
+
+class WrappedLabel(QLabel):
+    """A word-wrapped label that keeps the height its lines need at its width: a form inside
+    a scroll area (the docks) sizes rows by minimum sizes and squeezed wrapped lines together."""
+
+    def __init__(self) -> None:
+        super().__init__(wordWrap=True)
+
+    def setText(self, text: str) -> None:
+        super().setText(text)
+        self._fit_height()
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        self._fit_height()
+
+    def _fit_height(self) -> None:
+        self.setMinimumHeight(self.heightForWidth(max(self.width(), 1)) if self.text() else 0)
+
+
 class ObjectControls(QWidget):
-    """Lighting mode, samples, exposure, environment rotation, which material is shown."""
+    """Lighting mode (or auto: the cheapest predicted within a tolerance), samples, exposure,
+    environment rotation, which material is shown."""
 
     changed = Signal()
     open_mesh = Signal()
@@ -359,7 +386,20 @@ class ObjectControls(QWidget):
     def __init__(self) -> None:
         super().__init__()
         self.mode = QComboBox()
-        self.mode.addItems(["fis", "point", "sh", "prefiltered", "mis"])
+        self.mode.addItems(["fis", "point", "sh", "prefiltered", "mis", "auto"])
+        self.mode.setItemData(self.mode.findText("auto"), "the cheapest of prefiltered, SH and FIS / MIS predicted to "
+                              "stay within the tolerance for this material and map (chosen in the background)",
+                              Qt.ToolTipRole)
+        self.tolerance = QDoubleSpinBox(minimum=0.01, maximum=50.0, value=100 * DEFAULT_TOLERANCE, decimals=2,
+                                        singleStep=0.5, suffix=" %", enabled=False)
+        self.tolerance.setKeyboardTracking(False)
+        self.tolerance.setToolTip("auto: the relative RMSE (reference view) the chosen lighting is predicted to stay within")
+        self.auto_note = WrappedLabel()
+        self.auto_note.setVisible(False)
+        self.auto_caveat = WrappedLabel()  # where the view departs from what the choice predicts for
+        self.auto_caveat.setStyleSheet(CAVEAT_STYLE)
+        self.auto_caveat.setVisible(False)
+        self._auto_mode: str | None = None  # the mode of the choice shown
         self.sh_order = QSpinBox(minimum=1, maximum=10, value=5)
         self.sh_shadows = QCheckBox("SH self-shadowing")
         self.sh_variant = QComboBox()
@@ -381,6 +421,9 @@ class ObjectControls(QWidget):
         env.clicked.connect(self.open_environment.emit)
         form = QFormLayout(self)
         form.addRow("lighting", self.mode)
+        form.addRow("tolerance", self.tolerance)
+        form.addRow(self.auto_note)
+        form.addRow(self.auto_caveat)
         form.addRow("samples", self.samples)
         form.addRow("SH order", self.sh_order)
         form.addRow("SH variant", self.sh_variant)
@@ -390,11 +433,16 @@ class ObjectControls(QWidget):
         form.addRow("light θ (°)", self.light_theta)
         form.addRow("light φ (°)", self.light_phi)
         form.addRow("show", self.shown)
-        row = QHBoxLayout()
-        for w in (mesh, env, self.reinhard, self.sh_shadows):
-            row.addWidget(w)
-        form.addRow(row)
+        for pair in ((mesh, env), (self.reinhard, self.sh_shadows)):  # two short rows: the dock stays narrow
+            row = QHBoxLayout()
+            for w in pair:
+                row.addWidget(w)
+            form.addRow(row)
+        self.mode.currentIndexChanged.connect(lambda _: self._auto_toggled())
+        self.sh_shadows.toggled.connect(lambda _: self._show_auto_caveat())
+        self.sh_variant.currentIndexChanged.connect(lambda _: self._show_auto_caveat())
         self.mode.currentIndexChanged.connect(lambda _: self.changed.emit())
+        self.tolerance.valueChanged.connect(lambda _: self.changed.emit())
         self.samples.valueChanged.connect(lambda _: self.changed.emit())
         self.sh_order.valueChanged.connect(lambda _: self.changed.emit())
         self.shown.currentIndexChanged.connect(lambda _: self.changed.emit())
@@ -404,6 +452,51 @@ class ObjectControls(QWidget):
         self.sh_variant.currentIndexChanged.connect(lambda _: self.changed.emit())
         for row_ in (self.exposure, self.rotation, self.light_theta, self.light_phi):
             row_.edited.connect(lambda _: self.changed.emit())
+
+    @property
+    def auto(self) -> bool:
+        return self.mode.currentText() == "auto"
+
+    def _auto_toggled(self) -> None:
+        """Auto sets the samples and the SH order (shown, not editable); the tolerance is its own."""
+        for w in (self.samples, self.sh_order):
+            w.setEnabled(not self.auto)
+        self.tolerance.setEnabled(self.auto)
+        self.auto_note.setVisible(self.auto)
+        if not self.auto:
+            self._auto_mode = None
+        self._show_auto_caveat()
+
+    def _show_auto_caveat(self) -> None:
+        """Auto predicts plain SH lighting (the command line refuses the rest): say so when the
+        chosen SH mode is drawn self-shadowed or as a fixed variant."""
+        departs = []
+        if self._auto_mode == "sh" and self.sh_shadows.isChecked():
+            departs.append("SH self-shadowing is on")
+        if self._auto_mode == "sh" and self.sh_variant.currentText() != "dynamic":
+            departs.append(f"the SH variant is {self.sh_variant.currentText()}")
+        text = ("the prediction is for unshadowed, dynamic SH; here " + ", ".join(departs)
+                if self.auto and departs else "")
+        self.auto_caveat.setText(text)
+        self.auto_caveat.setVisible(bool(text))
+
+    def show_auto_note(self, text: str, tooltip: str = "", style: str = "") -> None:
+        """The line under the lighting choice: what auto chose (or is doing), and why."""
+        self.auto_note.setText(text)
+        self.auto_note.setToolTip(tooltip)
+        self.auto_note.setStyleSheet(style)
+
+    def show_auto_choice(self, choice) -> None:
+        """The choice (lighting.auto.LightingChoice): its settings in the disabled spin boxes
+        (without signalling an edit), its summary, every reason and candidate in the tooltip."""
+        settings = choice.render_settings()
+        with QSignalBlocker(self.samples), QSignalBlocker(self.sh_order):
+            self.samples.setValue(settings["samples"])
+            if settings["sh_order"] is not None:
+                self.sh_order.setValue(settings["sh_order"])
+        self.show_auto_note(f"{summary(choice)}\n{choice.reasons[0]}", details(choice), "" if choice.within else WARNING_STYLE)
+        self._auto_mode = choice.mode
+        self._show_auto_caveat()
 
     def light(self) -> tuple[float, float, float]:
         t, p = math.radians(self.light_theta.spin.value()), math.radians(self.light_phi.spin.value())

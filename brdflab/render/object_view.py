@@ -433,14 +433,19 @@ class ObjectRenderer:
             self._mesh_vao[key] = self.ctx.vertex_array(prog, [])
         return self._mesh_vao[key]
 
-    def samples_texture(self, n: int, rotation: np.ndarray | None = None, mode: str = "fis") -> moderngl.Texture:
+    def samples_texture(self, n: int, rotation: np.ndarray | None = None, mode: str = "fis",
+                        shuffle: np.random.Generator | None = None) -> tuple[moderngl.Texture, int]:
         """The sample set as an RGBA32F texture, SAMPLE_ROW samples per row, so that any
         count fits under GL's texture size limit (and with the exact lobe shares applied);
-        for MIS half of it drawn from the map (mis_sample_set)."""
+        for MIS half of it drawn from the map (mis_sample_set). With its size: at least one
+        sample per lobe, so a set may hold more than `n`. `shuffle`: the rows in a random
+        order, so that any run of them is an unbiased part of the set (drawn in pieces)."""
         if mode == "mis":
             data, fractions, self._env_fraction = mis_sample_set(self._shares, n, rotation)
         else:
             data, fractions = sample_set(self._shares, n, rotation)
+        if shuffle is not None:
+            data = data[shuffle.permutation(len(data))]
         self._uniforms = {**self._uniforms, "u_lobe_share": fractions.astype(np.float32)}
         rows = -(-len(data) // SAMPLE_ROW)
         limit = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 4096))
@@ -451,7 +456,7 @@ class ObjectRenderer:
         padded[: len(data)] = data
         tex = self.ctx.texture((width, rows), 4, padded.tobytes(), dtype="f4")
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        return tex
+        return tex, len(data)
 
     # --- progressive refinement (the GUI) ----------------------------------------------------------
     def start_progressive(self, settings: RenderSettings) -> "Progressive":
@@ -496,8 +501,12 @@ def _set_state(ctx: moderngl.Context, depth: bool, blend: bool) -> None:
 
 
 class Progressive:
-    """An image that keeps improving while the view stays still: each `step` adds a fresh
-    sample set (Cranley–Patterson rotated) to a float accumulation target."""
+    """An image that keeps improving while the view stays still, in a float accumulation
+    target. The sampled modes draw stratified sets of `settings.samples` (the first as is, the
+    next Cranley–Patterson rotated); a step draws the next rows of the current set, so that
+    however small the steps (the window's are a few samples on a slow machine), a finished set
+    is the image `render` makes of it — its stratification, its filter footprint — and the
+    lighting's predicted error (lighting/auto.py) holds for what the window shows."""
 
     def __init__(self, renderer: ObjectRenderer, settings: RenderSettings, seed: int | None = None) -> None:
         """`seed`: rotate the first set too (from this seed), so that images with different
@@ -513,6 +522,8 @@ class Progressive:
         self.steps = 0
         self._rng = np.random.default_rng(1 if seed is None else seed)
         self._rotate_first = seed is not None
+        self._set: tuple | None = None  # (texture, size asked, rows, footprint) of the set being drawn
+        self._drawn = 0  # rows of it drawn so far
 
     def step(self, samples: int) -> None:
         r, s = self.renderer, self.settings
@@ -532,9 +543,11 @@ class Progressive:
                 r.draw(s)
                 self.samples = 1
         else:
-            rotation = self._rng.random(2) if self.steps or self._rotate_first else None
-            tex = r.samples_texture(samples, rotation, s.mode)
-            footprint = self.samples + samples  # filter for all samples so far: the bias vanishes
+            if self._set is None:
+                self._start_set(samples)
+            tex, size, rows, footprint = self._set
+            begin = self._drawn
+            end = rows if begin == 0 and samples >= size else min(rows, begin + max(1, int(samples)))
             if reference:
                 _set_state(ctx, depth=False, blend=False)
             elif self.steps == 0:
@@ -545,15 +558,33 @@ class Progressive:
             _set_state(ctx, depth=not reference, blend=True)
             ctx.blend_func = moderngl.ONE, moderngl.ONE
             try:
-                for begin in range(0, samples, BATCH):
-                    r.draw(s, (begin, min(samples, begin + BATCH)), tex, footprint)
+                for first in range(begin, end, BATCH):
+                    r.draw(s, (first, min(end, first + BATCH)), tex, footprint)
             finally:
                 ctx.disable(moderngl.BLEND)
                 self.fbo.depth_mask = True
                 ctx.depth_func = "<"
-                tex.release()
-            self.samples += samples
+            self.samples += end - begin
+            self._drawn = end
+            if end == rows:
+                self._end_set()
         self.steps += 1
+
+    def _start_set(self, samples: int) -> None:
+        """The next stratified set: `settings.samples` (more if one step asks for more), every
+        row drawn and counted (a set holds at least one sample per lobe, so it may have more
+        rows); its filter footprint is every sample so far and its own. Shuffled when it will
+        be drawn in pieces."""
+        r, s = self.renderer, self.settings
+        size = max(int(s.samples), int(samples), 1)
+        rotation = self._rng.random(2) if self.samples or self._rotate_first else None
+        tex, rows = r.samples_texture(size, rotation, s.mode, shuffle=self._rng if samples < size else None)
+        self._set, self._drawn = (tex, size, rows, self.samples + rows), 0
+
+    def _end_set(self) -> None:
+        if self._set is not None:
+            self._set[0].release()
+        self._set, self._drawn = None, 0
 
     def _depth_prepass(self, s: RenderSettings, tex, footprint: int) -> None:
         """Lay down the visible surface's depth, then leave the test at '==' with depth
@@ -568,6 +599,7 @@ class Progressive:
         ctx.depth_func = "=="
 
     def release(self) -> None:
+        self._end_set()
         for obj in (self.fbo, self.texture, self.depth):
             obj.release()
 
