@@ -105,10 +105,11 @@ def main() -> None:
             raise SystemExit(f"{args.json}: made with another tolerance or split; not resumed")
         rows = earlier["rows"]
         todo = [n for n in todo if n not in {r["slice"] for r in rows}]
+    total = len(rows) + len(todo)
 
     def finished(r: dict) -> None:
         rows.append(r)
-        print(f"[{len(rows)}/{len(todo)}] {r['slice']}: {'hit' if r['hit'] else 'MISS'} pick {r['pick']} ({r['pick_parameters']} p, "
+        print(f"[{len(rows)}/{total}] {r['slice']}: {'hit' if r['hit'] else 'MISS'} pick {r['pick']} ({r['pick_parameters']} p, "
               f"{r['pick_error']:.4g}) best {r['best']} ({r['best_parameters']} p, {r['best_error']:.4g}); CPU "
               f"{r['auto_cpu_s']:.1f} s against {r['exhaustive_cpu_s']:.1f} s {r['why_missed']}", flush=True)
         write(rows)
