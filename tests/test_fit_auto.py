@@ -168,6 +168,8 @@ def test_cli_auto_out_writes_a_fitting_that_info_lists(tmp_path):
     (fitting,) = info["fittings"]
     models = [l["model"] for l in fitting["material"]["lobes"]]
     assert models == ["Lambertian", *chosen["lobes"]]
+    assert fitting["statistics"]["heldBackError"] == chosen["error_held_back"]  # stored with the pick
+    assert fitting["statistics"]["heldBackSamples"] == 1000
     text = _cli("fit", str(SLICE), "--auto", "--models", "BlinnPhong", "--size", "500", cwd=tmp_path)
     assert text.returncode == 0 and "held back" in text.stdout and "*" in text.stdout
 

@@ -40,6 +40,8 @@ from brdflab.fitting.defaults import DEFAULT_METRIC
 from brdflab.fitting.lm import FitOptions, FitResult, fit, material_from_lobes, parameter_count
 from brdflab.fitting.metrics import metric_errors
 from brdflab.fitting.samples import ArraySampleSet, SampleSet
+from brdflab.fitting.stored import fitting_of
+from brdflab.io.xmlio import Fitting
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.models import get_model, model_names
 
@@ -388,3 +390,19 @@ def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: s
         reason = "exhaustive run (every rung climbed, every candidate fully fitted): " + reason
     return Ladder(done, chosen, reason, tolerance, metric, fitted.size, held_back.size, time.perf_counter() - t0,
                   time.process_time() - c0)
+
+
+def chosen_fit(ladder: Ladder) -> FitResult:
+    """The pick's fit, saying which samples its error is measured on."""
+    result = ladder.chosen.result
+    result.scored_on = f"the {ladder.fitted_samples} samples Auto fitted"
+    return result
+
+
+def chosen_fitting(ladder: Ladder) -> Fitting:
+    """The <Fitting> that stores Auto's pick (the command line's --out and the window store
+    the same): its fit, plus its error on the held-back samples and the tolerance."""
+    fitting = fitting_of(chosen_fit(ladder))
+    fitting.statistics.update({"heldBackError": ladder.chosen.error_held_back,
+                               "heldBackSamples": ladder.held_back_samples, "autoTolerance": ladder.tolerance})
+    return fitting
