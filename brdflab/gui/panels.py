@@ -16,6 +16,7 @@ from PySide6.QtWidgets import (
     QGridLayout,
     QHBoxLayout,
     QLabel,
+    QLineEdit,
     QListWidget,
     QPlainTextEdit,
     QProgressBar,
@@ -32,6 +33,7 @@ from PySide6.QtWidgets import (
 
 from brdflab.gui.background import LatestOnly
 from brdflab.material.albedo import energy_check
+from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
 from brdflab.fitting.lm import METRICS
 from brdflab.material.analytic import AnalyticMaterial
@@ -412,9 +414,13 @@ class ObjectControls(QWidget):
 
 
 class FittingPanel(QWidget):
-    """Stored fits, and a new fit: lobes, strategy, metric, samples; Fit / Stop."""
+    """Stored fits, and a new fit: lobes, strategy, metric, samples; Fit / Stop. Auto climbs
+    the ladder of lobe sets instead (fitting/auto.py) within a tolerance, on a split of the
+    source's samples, over the named models."""
 
     fit_requested = Signal(list, str, str, str, int)  # lobes, combination, metric, sample kind, size
+    auto_requested = Signal(dict)  # auto_fit's settings: tolerance, metric, combination, split, models
+    ladder_requested = Signal()
     stop_requested = Signal()
     fit_selected = Signal(int)
     refit_requested = Signal(int)
@@ -439,12 +445,29 @@ class FittingPanel(QWidget):
         self.sample_size = QSpinBox(minimum=1000, maximum=2_000_000, value=50_000, singleStep=10_000)
         self.fit_button, self.stop_button = QPushButton("Fit"), QPushButton("Stop")
         self.stop_button.setEnabled(False)
+        self.auto_button = QPushButton("Auto")
+        self.auto_button.setToolTip("Climb from the Lambertian to three lobes, fitting half of a split of the "
+                                    "samples and scoring the other half; stop when more lobes no longer pay")
+        self.tolerance = QDoubleSpinBox(decimals=1, minimum=0.0, maximum=99.9, value=100 * DEFAULT_TOLERANCE,
+                                        singleStep=0.5, suffix=" %")
+        self.tolerance.setToolTip("Auto: a rung must improve the held-back error by more than this (relative)")
+        self.auto_models = QLineEdit()
+        self.auto_models.setPlaceholderText("all models")
+        self.auto_models.setToolTip("Auto: the lobe models to try, comma-separated (empty: all of "
+                                    + ", ".join(m for m in model_names() if m != "Lambertian") + ")")
+        self.auto_split = QSpinBox(minimum=100, maximum=2_000_000, value=DEFAULT_SPLIT, singleStep=5_000)
+        self.auto_split.setToolTip("Auto: samples fitted, and as many held back")
+        self.ladder_button = QPushButton("Show ladder")
+        self.ladder_button.setToolTip("The last Auto run's candidates, errors and choice")
+        self.ladder_button.setEnabled(False)
         self.refit_button, self.promote_button = QPushButton("Fit again from this"), QPushButton("Make main material")
         self.progress = QProgressBar()
         self.progress.setRange(0, 0)
         self.progress.setVisible(False)
         self.status = QLabel("")
         self.fit_button.clicked.connect(self._request)
+        self.auto_button.clicked.connect(self._request_auto)
+        self.ladder_button.clicked.connect(self.ladder_requested.emit)
         self.stop_button.clicked.connect(self.stop_requested.emit)
         self.refit_button.clicked.connect(lambda: self.fits.currentRow() >= 0 and self.refit_requested.emit(self.fits.currentRow()))
         self.promote_button.clicked.connect(lambda: self.fits.currentRow() >= 0 and self.promote_requested.emit(self.fits.currentRow()))
@@ -462,15 +485,32 @@ class FittingPanel(QWidget):
         grid.addWidget(QLabel("samples"), 5, 0)
         grid.addWidget(self.sample_kind, 5, 1)
         grid.addWidget(self.sample_size, 5, 2, 1, 2)
-        grid.addWidget(self.fit_button, 6, 0, 1, 2)
+        grid.addWidget(self.fit_button, 6, 0)
+        grid.addWidget(self.auto_button, 6, 1)
         grid.addWidget(self.stop_button, 6, 2, 1, 2)
-        grid.addWidget(self.progress, 7, 0, 1, 4)
-        grid.addWidget(self.status, 8, 0, 1, 4)
+        grid.addWidget(QLabel("Auto within"), 7, 0)
+        grid.addWidget(self.tolerance, 7, 1)
+        grid.addWidget(QLabel("split"), 7, 2)
+        grid.addWidget(self.auto_split, 7, 3)
+        grid.addWidget(QLabel("Auto models"), 8, 0)
+        grid.addWidget(self.auto_models, 8, 1, 1, 2)
+        grid.addWidget(self.ladder_button, 8, 3)
+        grid.addWidget(self.progress, 9, 0, 1, 4)
+        grid.addWidget(self.status, 10, 0, 1, 4)
 
     def _request(self) -> None:
         lobes = [s.strip() for s in self.lobes.currentText().split(",") if s.strip()]
         self.fit_requested.emit(lobes, self.strategy.currentText(), self.metric_box.currentText(),
                                 self.sample_kind.currentText(), self.sample_size.value())
+
+    def auto_settings(self) -> dict:
+        """auto_fit's settings from the panel (models: None for all)."""
+        models = [m.strip() for m in self.auto_models.text().split(",") if m.strip()]
+        return {"tolerance": self.tolerance.value() / 100.0, "metric": self.metric_box.currentText(),
+                "combination": self.strategy.currentText(), "split": self.auto_split.value(), "models": models or None}
+
+    def _request_auto(self) -> None:
+        self.auto_requested.emit(self.auto_settings())
 
     def show_fits(self, fittings, shown: int | None, energy: list | None = None) -> None:
         """The stored fits; `energy` (one summary per fit, when known) marks those that do not
@@ -489,8 +529,10 @@ class FittingPanel(QWidget):
 
     def set_running(self, running: bool) -> None:
         self.fit_button.setEnabled(not running)
+        self.auto_button.setEnabled(not running)
         self.stop_button.setEnabled(running)
         self.progress.setVisible(running)
+        self.progress.setRange(0, 0)  # busy until a run reports how far it is
 
 
 class PlotsPanel(QWidget):
