@@ -54,6 +54,7 @@ def test_auto_stores_what_auto_fit_picks_and_shows_the_ladder(window, qtbot):
     assert stored.error == direct.chosen.error_fitted
     assert window.workspace.shown_fit == 0 and window.undo_stack.undoText() == "Auto fit"
     assert f"Auto chose {_label(direct.chosen.lobes)}" in panel.status.text()
+    assert panel.fits.item(0).text().startswith(f"0: {_label(direct.chosen.lobes)}  ")  # every lobe named
 
     # the ladder: a row per candidate, the chosen one marked, the reason above
     view = window.ladder

@@ -34,6 +34,7 @@ from brdflab.fitting.diagnosis import bound_warnings, energy_words
 from brdflab.models import get_model
 
 LAYOUT_VERSION = 4  # 2: the lobe viewer became the central view; 3: the Charts dock; 4: the Auto ladder dock
+LADDER_HEIGHT = 400  # pixels: the Auto ladder dock's reason and a dozen candidates
 CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
 <table cellspacing=4>
 <tr><td><b>Lobe viewer</b></td><td></td></tr>
@@ -966,9 +967,12 @@ class MainWindow(QMainWindow):
         self.fitting.ladder_button.setEnabled(own)
 
     def show_ladder(self) -> None:
+        """The Auto ladder dock in front, tall enough for a ladder (the views keep the rest)."""
         dock = self._docks["Auto ladder"]
         dock.show()
         dock.raise_()
+        if not dock.isFloating() and dock.height() < LADDER_HEIGHT:
+            self.resizeDocks([dock], [min(LADDER_HEIGHT, self.height() // 2)], Qt.Vertical)
 
     def _select_fit(self, index: int) -> None:
         self.workspace.shown_fit = index

@@ -450,14 +450,15 @@ class FittingPanel(QWidget):
                                     "samples and scoring the other half; stop when more lobes no longer pay")
         self.tolerance = QDoubleSpinBox(decimals=1, minimum=0.0, maximum=99.9, value=100 * DEFAULT_TOLERANCE,
                                         singleStep=0.5, suffix=" %")
-        self.tolerance.setToolTip("Auto: a rung must improve the held-back error by more than this (relative)")
+        self.tolerance.setToolTip("Auto: a rung of lobes must improve the held-back error by more than this "
+                                  "(relative) to be climbed")
         self.auto_models = QLineEdit()
         self.auto_models.setPlaceholderText("all models")
         self.auto_models.setToolTip("Auto: the lobe models to try, comma-separated (empty: all of "
                                     + ", ".join(m for m in model_names() if m != "Lambertian") + ")")
         self.auto_split = QSpinBox(minimum=100, maximum=2_000_000, value=DEFAULT_SPLIT, singleStep=5_000)
         self.auto_split.setToolTip("Auto: samples fitted, and as many held back")
-        self.ladder_button = QPushButton("Show ladder")
+        self.ladder_button = QPushButton("Ladder")
         self.ladder_button.setToolTip("The last Auto run's candidates, errors and choice")
         self.ladder_button.setEnabled(False)
         self.refit_button, self.promote_button = QPushButton("Fit again from this"), QPushButton("Make main material")
@@ -465,6 +466,7 @@ class FittingPanel(QWidget):
         self.progress.setRange(0, 0)
         self.progress.setVisible(False)
         self.status = QLabel("")
+        self.status.setWordWrap(True)  # a long status must not widen the dock
         self.fit_button.clicked.connect(self._request)
         self.auto_button.clicked.connect(self._request_auto)
         self.ladder_button.clicked.connect(self.ladder_requested.emit)
@@ -485,14 +487,14 @@ class FittingPanel(QWidget):
         grid.addWidget(QLabel("samples"), 5, 0)
         grid.addWidget(self.sample_kind, 5, 1)
         grid.addWidget(self.sample_size, 5, 2, 1, 2)
-        grid.addWidget(self.fit_button, 6, 0)
-        grid.addWidget(self.auto_button, 6, 1)
-        grid.addWidget(self.stop_button, 6, 2, 1, 2)
-        grid.addWidget(QLabel("Auto within"), 7, 0)
+        grid.addWidget(self.fit_button, 6, 0, 1, 2)
+        grid.addWidget(self.auto_button, 6, 2)
+        grid.addWidget(self.stop_button, 6, 3)
+        grid.addWidget(QLabel("tolerance"), 7, 0)
         grid.addWidget(self.tolerance, 7, 1)
         grid.addWidget(QLabel("split"), 7, 2)
         grid.addWidget(self.auto_split, 7, 3)
-        grid.addWidget(QLabel("Auto models"), 8, 0)
+        grid.addWidget(QLabel("models"), 8, 0)
         grid.addWidget(self.auto_models, 8, 1, 1, 2)
         grid.addWidget(self.ladder_button, 8, 3)
         grid.addWidget(self.progress, 9, 0, 1, 4)
@@ -518,7 +520,8 @@ class FittingPanel(QWidget):
         with QSignalBlocker(self.fits):
             self.fits.clear()
             for k, f in enumerate(fittings):
-                lobes = "+".join(dict.fromkeys(l.model.name for l in f.material.lobes))
+                # one name per lobe (Auto picks repeat a model), not per channel of a Fixed fit
+                lobes = "+".join(l.model.name for l in f.material.lobes if l.channel in (None, 0))
                 err = "—" if f.error is None else f"{f.error:.5g}"
                 metric = f.statistics.get("metric", "")
                 summary = energy[k] if energy is not None and k < len(energy) else None
