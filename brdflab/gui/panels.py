@@ -430,6 +430,9 @@ class FittingPanel(QWidget):
         super().__init__()
         self.fits = QListWidget()
         self.fits.currentRowChanged.connect(lambda r: r >= 0 and self.fit_selected.emit(r))
+        # the list takes the height left over (at least three rows): the controls below stay in view
+        self.fits.setSizePolicy(QSizePolicy.Expanding, QSizePolicy.Ignored)
+        self.fits.setMinimumHeight(3 * self.fits.fontMetrics().height() + 12)
         self.lobes = QComboBox()
         self.lobes.setEditable(True)
         self.lobes.addItems(["Lambertian,LafortuneIso", "Lambertian,CookTorrance", "Lambertian,Ward",
@@ -499,6 +502,7 @@ class FittingPanel(QWidget):
         grid.addWidget(self.ladder_button, 8, 3)
         grid.addWidget(self.progress, 9, 0, 1, 4)
         grid.addWidget(self.status, 10, 0, 1, 4)
+        grid.setRowStretch(1, 1)  # spare height goes to the stored fits
 
     def _request(self) -> None:
         lobes = [s.strip() for s in self.lobes.currentText().split(",") if s.strip()]
