@@ -97,3 +97,21 @@ def test_stop_ends_auto_promptly_keeping_the_best_fully_fitted(window, qtbot):
     (stored,) = window.workspace.document.fittings
     assert stored.statistics["heldBackError"] == ladder.chosen.error_held_back
     assert panel.auto_button.isEnabled() and not panel.stop_button.isEnabled()
+
+
+def test_auto_never_lands_in_another_document(window, qtbot, tmp_path):
+    from brdflab.gui.auto_ladder import EMPTY_TEXT
+    from brdflab.io import xmlio
+    from brdflab.workspace import default_material
+
+    open_and_wait(qtbot, window, window.open_path, SLICE)
+    window.fitting.auto_button.click()
+    qtbot.waitUntil(lambda: "candidate" in window.fitting.status.text(), timeout=60000)
+    other = tmp_path / "other.xml"
+    xmlio.save(xmlio.BRDFDocument(default_material()), other)
+    open_and_wait(qtbot, window, window.open_path, other)  # while Auto runs: it is stopped
+    qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
+    assert window.workspace.path == other
+    assert window.workspace.document.fittings == [] and not window.workspace.dirty
+    assert window.ladder.summary.text() == EMPTY_TEXT and not window.fitting.ladder_button.isEnabled()
+    assert "document was closed" in window.fitting.status.text()
