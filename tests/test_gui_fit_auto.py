@@ -99,12 +99,16 @@ def test_stop_ends_auto_promptly_keeping_the_best_fully_fitted(window, qtbot):
     assert panel.auto_button.isEnabled() and not panel.stop_button.isEnabled()
 
 
-def test_auto_never_lands_in_another_document(window, qtbot, tmp_path):
+def test_auto_refuses_unknown_models_and_never_lands_in_another_document(window, qtbot, tmp_path):
     from brdflab.gui.auto_ladder import EMPTY_TEXT
     from brdflab.io import xmlio
     from brdflab.workspace import default_material
 
     open_and_wait(qtbot, window, window.open_path, SLICE)
+    window.fitting.auto_models.setText("BlinnPhong, NoSuchModel")
+    window.fitting.auto_button.click()  # an unknown model is said at once, nothing runs
+    assert window._thread is None and "NoSuchModel" in window.statusBar().currentMessage()
+    window.fitting.auto_models.setText("")
     window.fitting.auto_button.click()
     qtbot.waitUntil(lambda: "candidate" in window.fitting.status.text(), timeout=60000)
     other = tmp_path / "other.xml"

@@ -928,7 +928,7 @@ class MainWindow(QMainWindow):
         self._fit_history = []
         self._thread = AutoFitProcess(source, settings, self)
         self._thread.started.connect(lambda n: self.fitting.status.setText(
-            f"Auto: {n} samples; fitting {settings['split']} of them, holding as many back…"))
+            f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…"))
         self._thread.progress.connect(self._auto_progress)
         self._thread.finished.connect(self._auto_finished)
         self._thread.failed.connect(self._fit_failed)
