@@ -148,7 +148,7 @@ class _Climb:
         self.step, self.expected = 0, 1 + rungs * self.per_rung
         self.best: Candidate | None = None
 
-    def done(self, candidate: Candidate, result: FitResult) -> None:
+    def stop_if_cancelled(self, candidate: Candidate, result: FitResult) -> None:
         """After a fit of `candidate`: stop if it was cancelled half-way."""
         if result.status == "cancelled":
             raise _Cancelled(candidate)
@@ -249,7 +249,7 @@ def _fit_fully(candidate: Candidate, base: Candidate | None, fitted: SampleSet, 
                combination: str, options: FitOptions, climb: _Climb) -> None:
     candidate.result, candidate.error_held_back = _fit(candidate, base, fitted, held_back, combination, options, climb)
     candidate.status, candidate.error_fitted = candidate.result.status, candidate.result.error
-    climb.done(candidate, candidate.result)
+    climb.stop_if_cancelled(candidate, candidate.result)
     climb.report(candidate, "fitted")
 
 
@@ -270,7 +270,7 @@ def _screen(rung: list[Candidate], base: Candidate, fitted: SampleSet, held_back
     quick = replace(options, restarts=False, max_iterations=min(options.max_iterations, SCREEN_ITERATIONS))
     for c in rung:
         result, held = _fit(c, base, small, held_back, combination, quick, climb)
-        climb.done(c, result)
+        climb.stop_if_cancelled(c, result)
         c.screen_error = held
         climb.report(c, "screened")
     # the base screened the same way: a candidate whose screen does not beat it learnt nothing
