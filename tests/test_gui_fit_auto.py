@@ -38,7 +38,8 @@ def test_auto_stores_what_auto_fit_picks_and_shows_the_ladder(window, qtbot):
     with GapProbe() as probe:
         panel.auto_button.click()
         assert not panel.auto_button.isEnabled() and panel.stop_button.isEnabled()
-        qtbot.waitUntil(lambda: "candidate" in panel.status.text(), timeout=60000)  # progress arrives
+        qtbot.waitUntil(lambda: "held back" in panel.status.text(), timeout=60000)  # progress arrives
+        assert panel.progress.text().startswith("candidate ") and panel.progress.maximum() > 1
         qtbot.waitUntil(lambda: window._thread is None, timeout=120000)
     gaps = sorted(probe.gaps)
     print(f"GUI thread gaps during Auto: median {1e3 * gaps[len(gaps) // 2]:.1f} ms, max {1e3 * gaps[-1]:.1f} ms")
@@ -110,7 +111,7 @@ def test_auto_refuses_unknown_models_and_never_lands_in_another_document(window,
     assert window._thread is None and "NoSuchModel" in window.statusBar().currentMessage()
     window.fitting.auto_models.setText("")
     window.fitting.auto_button.click()
-    qtbot.waitUntil(lambda: "candidate" in window.fitting.status.text(), timeout=60000)
+    qtbot.waitUntil(lambda: "held back" in window.fitting.status.text(), timeout=60000)
     other = tmp_path / "other.xml"
     xmlio.save(xmlio.BRDFDocument(default_material()), other)
     open_and_wait(qtbot, window, window.open_path, other)  # while Auto runs: it is stopped

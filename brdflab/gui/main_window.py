@@ -937,9 +937,12 @@ class MainWindow(QMainWindow):
         self.fitting.status.setText("starting Auto…")
 
     def _auto_progress(self, p: AutoProgress) -> None:
-        self.fitting.progress.setRange(0, p.expected)
-        self.fitting.progress.setValue(p.step)
-        self.fitting.status.setText(f"Auto: {p.describe()}")
+        bar = self.fitting.progress
+        bar.setRange(0, p.expected)
+        bar.setValue(p.step)
+        bar.setFormat("candidate %v of about %m")
+        self.fitting.status.setText(f"Auto: {p.stage} {p.candidate}, held back {p.error:.4g} "
+                                    f"(best so far {p.best_error:.4g})")
 
     def _auto_finished(self, ladder: Ladder) -> None:
         owner, self._fit_owner = self._fit_owner, None

@@ -540,6 +540,7 @@ class FittingPanel(QWidget):
         self.stop_button.setEnabled(running)
         self.progress.setVisible(running)
         self.progress.setRange(0, 0)  # busy until a run reports how far it is
+        self.progress.setFormat("%p%")
 
 
 class PlotsPanel(QWidget):
