@@ -198,10 +198,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
 def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
     """`brdflab fit SOURCE --auto`: the ladder as a table (or JSON); --out stores the pick."""
-    from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE, auto_fit, validate_tolerance
+    from brdflab.fitting.auto import (DEFAULT_SPLIT, DEFAULT_TOLERANCE, auto_fit, chosen_fit, chosen_fitting,
+                                      validate_tolerance)
     from brdflab.fitting.lm import FitOptions
     from brdflab.fitting.samples import samples_of
-    from brdflab.fitting.stored import append_fitting, document_for
+    from brdflab.fitting.stored import document_for
     from brdflab.io.xmlio import save
     from brdflab.models import get_model
     from brdflab.sources.files import load_source
@@ -219,12 +220,11 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
         get_model(name)  # an unknown name fails before any fit
     ladder = auto_fit(samples_of(source), tolerance, args.metric, {"linear": "Linear", "fixed": "Fixed"}[args.combination],
                       split=args.size or DEFAULT_SPLIT, models=models, options=options)
-    chosen = ladder.chosen.result
-    chosen.scored_on = f"the {ladder.fitted_samples} samples Auto fitted"
+    chosen = chosen_fit(ladder)
     payload = {**ladder.as_dict(), "source": str(source_path), "fit": chosen.as_dict()}
     if args.out:
         doc = document_for(source_path, source)
-        append_fitting(doc, chosen)
+        doc.fittings.append(chosen_fitting(ladder))
         save(doc, Path(args.out))
         payload["out"] = args.out
     lines = [f"Auto ladder ({ladder.metric}; {ladder.fitted_samples} samples fitted, {ladder.held_back_samples} held "

@@ -5,12 +5,13 @@ import json
 import os
 import subprocess
 import sys
+import threading
 
 import numpy as np
 import pytest
 
 from brdflab.errors import BRDFLabError
-from brdflab.fitting.auto import auto_fit, improves, split_samples
+from brdflab.fitting.auto import SCREEN_KEEP, auto_fit, improves, split_samples
 from brdflab.fitting.samples import ArraySampleSet, analytic_grid, samples_of
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.sources.measured import read_slice
@@ -85,6 +86,62 @@ def test_screening_keeps_fits_identical_to_the_exhaustive_run():
     assert auto.chosen.lobes == full.chosen.lobes
 
 
+
+@needs_shared("merl_slices", "blue-fabric.slice")
+def test_progress_hears_every_screen_and_full_fit_and_changes_nothing():
+    samples = samples_of(read_slice(SLICE))
+    reports = []
+    ladder = auto_fit(samples, split=1000, models=MODELS, max_lobes=2, progress=reports.append)
+    quiet = auto_fit(samples, split=1000, models=MODELS, max_lobes=2)
+    assert [c.error_held_back for c in ladder.candidates] == [c.error_held_back for c in quiet.candidates]
+    assert ladder.chosen.lobes == quiet.chosen.lobes and ladder.reason == quiet.reason
+    screens = [c for c in ladder.candidates if np.isfinite(c.screen_error)]
+    fitted = [c for c in ladder.candidates if c.fitted]
+    assert [r.step for r in reports] == list(range(1, len(screens) + len(fitted) + 1))
+    assert [r.stage for r in reports].count("screened") == len(screens)
+    assert all(r.expected >= r.step for r in reports)
+    assert reports[0].expected == 1 + 2 * (len(MODELS) + min(len(MODELS), SCREEN_KEEP))  # two rungs: screens, full fits
+    best = min(fitted, key=lambda c: c.error_held_back)
+    assert reports[-1].best_error == best.error_held_back
+    assert reports[-1].best == "+".join(("Lambertian", *best.lobes))
+    assert "of about" in reports[-1].describe()
+
+
+@needs_shared("merl_slices", "blue-fabric.slice")
+def test_cancel_keeps_the_ladder_so_far_and_picks_among_the_fully_fitted():
+    samples = samples_of(read_slice(SLICE))
+    cancel = threading.Event()
+
+    def stop_after_the_first_lobe_fit(report):
+        if report.stage == "fitted" and report.step > 1:
+            cancel.set()  # the next fit (a full fit in rung 1) is cancelled at its first sample pass
+
+    ladder = auto_fit(samples, split=1000, models=MODELS, max_lobes=2, progress=stop_after_the_first_lobe_fit,
+                      cancel=cancel)
+    whole = auto_fit(samples, split=1000, models=MODELS, max_lobes=2)
+    assert ladder.reason.startswith("cancelled in rung 1")
+    assert {c.rung for c in ladder.candidates} == {0, 1} and len(ladder.candidates) == 1 + len(MODELS)
+    statuses = [c.status for c in ladder.candidates]
+    assert statuses.count("cancelled") == 1
+    fitted = [c for c in ladder.candidates if c.fitted]
+    assert len(fitted) == 2  # the Lambertian and one lobe: nothing after the cancel counts as fitted
+    reference = {c.lobes: c.error_held_back for c in whole.candidates}
+    assert all(c.error_held_back == reference[c.lobes] for c in fitted)  # the same fits as uncancelled
+    lambertian, lobe = fitted
+    expected = lobe if improves(lambertian.error_held_back, lobe.error_held_back, 0.05) else lambertian
+    assert ladder.chosen is expected and ladder.chosen.result is not None
+
+
+def test_cancel_before_anything_is_fitted_keeps_the_lambertian_start():
+    cancel = threading.Event()
+    cancel.set()
+    ladder = auto_fit(noisy_samples([Lobe.create("Lambertian", [0.5, 0.4, 0.3])]), split=500, models=MODELS,
+                      cancel=cancel)
+    (only,) = ladder.candidates
+    assert ladder.chosen is only and only.status == "cancelled" and not only.fitted
+    assert only.result is not None and np.isfinite(only.error_held_back)
+    assert "cancelled during the Lambertian's fit" in ladder.reason
+
 def test_bad_tolerance_is_refused():
     samples = noisy_samples([Lobe.create("Lambertian", [0.5, 0.4, 0.3])])
     for bad in (-0.1, 1.0, float("nan")):
@@ -111,6 +168,8 @@ def test_cli_auto_out_writes_a_fitting_that_info_lists(tmp_path):
     (fitting,) = info["fittings"]
     models = [l["model"] for l in fitting["material"]["lobes"]]
     assert models == ["Lambertian", *chosen["lobes"]]
+    assert fitting["statistics"]["heldBackError"] == chosen["error_held_back"]  # stored with the pick
+    assert fitting["statistics"]["heldBackSamples"] == 1000
     text = _cli("fit", str(SLICE), "--auto", "--models", "BlinnPhong", "--size", "500", cwd=tmp_path)
     assert text.returncode == 0 and "held back" in text.stdout and "*" in text.stdout
 

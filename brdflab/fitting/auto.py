@@ -19,6 +19,10 @@ better than the rung's base refitted the same quick way), are fitted fully, from
 start as without screening.
 `exhaustive=True` fully fits every candidate of every rung, past the stop too: the
 reference Auto is checked against (`benchmarks/fit_auto.py`).
+
+A window runs Auto in a worker process: `progress` hears of every screen and full fit, and
+`cancel` (an Event) stops the climb within one sample chunk of the running fit; the ladder
+so far comes back, with the pick among the candidates fully fitted.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import math
 import time
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
+from typing import Callable, Protocol
 
 import numpy as np
 
@@ -35,6 +40,8 @@ from brdflab.fitting.defaults import DEFAULT_METRIC
 from brdflab.fitting.lm import FitOptions, FitResult, fit, material_from_lobes, parameter_count
 from brdflab.fitting.metrics import metric_errors
 from brdflab.fitting.samples import ArraySampleSet, SampleSet
+from brdflab.fitting.stored import fitting_of
+from brdflab.io.xmlio import Fitting
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.models import get_model, model_names
 
@@ -66,7 +73,8 @@ class Candidate:
 
     @property
     def fitted(self) -> bool:
-        return self.result is not None
+        """Fully fitted (a fit cancelled half-way keeps its best parameters, but is not)."""
+        return self.result is not None and self.status != "cancelled"
 
     def as_dict(self) -> dict:
         return {"rung": self.rung, "lobes": list(self.lobes), "parameters": self.parameters,
@@ -95,6 +103,69 @@ class Ladder:
                 "held_back_samples": self.held_back_samples, "seconds": round(self.seconds, 4),
                 "cpu_seconds": round(self.cpu_seconds, 4), "chosen": self.candidates.index(self.chosen), "reason": self.reason,
                 "candidates": [c.as_dict() for c in self.candidates]}
+
+
+class Cancel(Protocol):
+    """What asks a run to stop: a threading or multiprocessing Event."""
+
+    def is_set(self) -> bool: ...
+
+
+@dataclass(frozen=True)
+class AutoProgress:
+    """A report after each screen and full fit: how far the climb is and its best so far."""
+
+    step: int  # screens and full fits done
+    expected: int  # about how many in all (the climb may stop sooner; a screen may keep more)
+    stage: str  # "screened" | "fitted"
+    candidate: str  # the candidate just done, e.g. "Lambertian+CookTorrance"
+    error: float  # its held-back error (of its quick fit when screened)
+    best: str  # the lowest held-back error fully fitted so far
+    best_error: float
+
+    def describe(self) -> str:
+        return (f"candidate {self.step} of about {self.expected}: {self.stage} {self.candidate} "
+                f"(held back {self.error:.4g}); best so far {self.best} {self.best_error:.4g}")
+
+
+class _Cancelled(Exception):
+    """The climb was asked to stop; `candidate` is the one whose fit it interrupted (if any)."""
+
+    def __init__(self, candidate: Candidate | None) -> None:
+        super().__init__("cancelled")
+        self.candidate = candidate
+
+
+class _Climb:
+    """An Auto run's reporting and stopping: every fit gets `cancel`; after every screen and
+    full fit `progress` hears how far the climb is."""
+
+    def __init__(self, progress: Callable[[AutoProgress], None] | None, cancel: Cancel | None,
+                 rungs: int, models: int, exhaustive: bool) -> None:
+        self.progress, self.cancel = progress, cancel
+        self.per_rung = models if exhaustive else models + min(models, SCREEN_KEEP)
+        self.rungs_left = rungs
+        self.step, self.expected = 0, 1 + rungs * self.per_rung
+        self.best: Candidate | None = None
+
+    def stop_if_cancelled(self, candidate: Candidate, result: FitResult) -> None:
+        """After a fit of `candidate`: stop if it was cancelled half-way."""
+        if result.status == "cancelled":
+            raise _Cancelled(candidate)
+
+    def screened(self, kept: int) -> None:
+        """A rung's screening is done and keeps `kept` to fit fully: the estimate follows."""
+        self.rungs_left -= 1
+        self.expected = self.step + kept + self.rungs_left * self.per_rung
+
+    def report(self, candidate: Candidate, stage: str) -> None:
+        self.step += 1
+        if stage == "fitted" and (self.best is None or candidate.error_held_back < self.best.error_held_back):
+            self.best = candidate
+        if self.progress is not None and self.best is not None:
+            error = candidate.error_held_back if stage == "fitted" else candidate.screen_error
+            self.progress(AutoProgress(self.step, max(self.expected, self.step), stage, _label(candidate), error,
+                                       _label(self.best), self.best.error_held_back))
 
 
 def _number(x: float) -> float | None:
@@ -162,12 +233,12 @@ def _start(candidate: Candidate, base: Candidate | None, combination: str, n_cha
 
 
 def _fit(candidate: Candidate, base: Candidate | None, fitted: SampleSet, held_back: SampleSet,
-         combination: str, options: FitOptions) -> tuple[FitResult, float]:
+         combination: str, options: FitOptions, climb: _Climb) -> tuple[FitResult, float]:
     """Fit the candidate (from its start) and score it on the held-back samples; its
     times grow by what this took."""
     t0, c0 = time.perf_counter(), time.process_time()
     start = _start(candidate, base, combination, fitted.n_channels)
-    result = fit(start, fitted, options)
+    result = fit(start, fitted, options, cancel=climb.cancel)
     (held,) = metric_errors([result.material], held_back, options.metric)
     candidate.seconds += time.perf_counter() - t0
     candidate.cpu_seconds += time.process_time() - c0
@@ -175,9 +246,11 @@ def _fit(candidate: Candidate, base: Candidate | None, fitted: SampleSet, held_b
 
 
 def _fit_fully(candidate: Candidate, base: Candidate | None, fitted: SampleSet, held_back: SampleSet,
-               combination: str, options: FitOptions) -> None:
-    candidate.result, candidate.error_held_back = _fit(candidate, base, fitted, held_back, combination, options)
+               combination: str, options: FitOptions, climb: _Climb) -> None:
+    candidate.result, candidate.error_held_back = _fit(candidate, base, fitted, held_back, combination, options, climb)
     candidate.status, candidate.error_fitted = candidate.result.status, candidate.result.error
+    climb.stop_if_cancelled(candidate, candidate.result)
+    climb.report(candidate, "fitted")
 
 
 def screen_margin(tolerance: float) -> float:
@@ -187,7 +260,7 @@ def screen_margin(tolerance: float) -> float:
 
 
 def _screen(rung: list[Candidate], base: Candidate, fitted: SampleSet, held_back: SampleSet, combination: str,
-            options: FitOptions, tolerance: float) -> list[Candidate]:
+            options: FitOptions, tolerance: float, climb: _Climb) -> list[Candidate]:
     """Fit every candidate quickly (a quarter of the fitted samples, no restarts, few
     steps: fit time is mostly restarts and steps, not samples); the ones worth a full fit:
     those whose held-back error there is within `screen_margin` of the best, at least
@@ -196,12 +269,17 @@ def _screen(rung: list[Candidate], base: Candidate, fitted: SampleSet, held_back
     small = fitted.subset(max(SCREEN_MIN_SAMPLES, fitted.size // 4), seed=SPLIT_SEED)
     quick = replace(options, restarts=False, max_iterations=min(options.max_iterations, SCREEN_ITERATIONS))
     for c in rung:
-        c.screen_error = _fit(c, base, small, held_back, combination, quick)[1]
+        result, held = _fit(c, base, small, held_back, combination, quick, climb)
+        climb.stop_if_cancelled(c, result)
+        c.screen_error = held
+        climb.report(c, "screened")
     # the base screened the same way: a candidate whose screen does not beat it learnt nothing
     # from its quick fit (its new lobe stuck at the start, or the small set misled it), so
     # its screen cannot rank it: it is fully fitted rather than dropped
     base_again = Candidate(base.rung, base.lobes, base.parameters, base.evaluation_ns)
-    base_screen = _fit(base_again, base, small, held_back, combination, quick)[1]
+    result, base_screen = _fit(base_again, base, small, held_back, combination, quick, climb)
+    if result.status == "cancelled":
+        raise _Cancelled(None)
     for c in rung:
         c.seconds += base_again.seconds / len(rung)
         c.cpu_seconds += base_again.cpu_seconds / len(rung)
@@ -229,11 +307,41 @@ def _pick(rung: list[Candidate], tolerance: float) -> Candidate:
     return min((c for c in near if c.parameters == fewest), key=lambda c: (c.error_held_back, c.lobes))
 
 
+def _improved(rung_index: int, full: list[Candidate], chosen: Candidate, tolerance: float,
+              metric: str) -> tuple[Candidate, str] | None:
+    """The rung's pick and why, when its best beats the current pick by more than the tolerance."""
+    best = min(full, key=lambda c: c.error_held_back)
+    if not improves(chosen.error_held_back, best.error_held_back, tolerance):
+        return None
+    gain = 1.0 - best.error_held_back / chosen.error_held_back if chosen.error_held_back > 0 else 0.0
+    pick = _pick(full, tolerance)
+    return pick, (f"rung {rung_index} improved the held-back {metric} error by {gain:.1%} (> {tolerance:.1%}); "
+                  f"{_label(pick)} has the fewest parameters within the tolerance of its best ({_label(best)})")
+
+
+def _cancelled(rung: list[Candidate], chosen: Candidate, stopped: bool, tolerance: float,
+               metric: str) -> tuple[Candidate, str]:
+    """The pick of a cancelled climb, among the candidates fully fitted, and why; `rung` is
+    the rung it was stopped in (empty: the Lambertian's fit)."""
+    if not chosen.fitted:
+        return chosen, ("cancelled during the Lambertian's fit: nothing was fully fitted, so its best "
+                        "parameters so far are kept")
+    fully = [c for c in rung if c.fitted]
+    where = f"cancelled in rung {rung[0].rung} ({len(fully)} of its {len(rung)} candidates fully fitted)"
+    better = None if stopped or not fully else _improved(rung[0].rung, fully, chosen, tolerance, metric)
+    if better is not None:
+        return better[0], f"{where}; of those fully fitted: {better[1]}"
+    return chosen, f"{where}; {_label(chosen)}, the pick of the rungs climbed before, is kept"
+
+
 def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: str = DEFAULT_METRIC,
              combination: str = "Linear", split: int = DEFAULT_SPLIT, models: list[str] | None = None,
-             max_lobes: int = MAX_LOBES, exhaustive: bool = False, options: FitOptions | None = None) -> Ladder:
+             max_lobes: int = MAX_LOBES, exhaustive: bool = False, options: FitOptions | None = None,
+             progress: Callable[[AutoProgress], None] | None = None, cancel: Cancel | None = None) -> Ladder:
     """Climb the ladder on `samples` (see the module doc); returns every candidate fitted
-    and the pick. `models`: the lobe models tried (default: every registry model)."""
+    and the pick. `models`: the lobe models tried (default: every registry model).
+    `progress` is called after every screen and full fit; once `cancel` is set, the running
+    fit stops within a sample chunk and the ladder so far is returned (its `reason` says so)."""
     validate_tolerance(tolerance)
     t0, c0 = time.perf_counter(), time.process_time()
     options = replace(options or FitOptions(), metric=metric, diagnose=False)
@@ -241,34 +349,60 @@ def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: s
     fitted, held_back = split_samples(samples, split)
     names = [m for m in (models or model_names()) if m != "Lambertian"]
     channels = samples.n_channels
+    climb = _Climb(progress, cancel, max_lobes if names else 0, len(names), exhaustive)
     lambertian = _candidate(0, (), combination, channels)
-    _fit_fully(lambertian, None, fitted, held_back, combination, options)
     done, chosen, base, stopped = [lambertian], lambertian, lambertian, False
-    reason = f"no lobe model to add: the Lambertian alone ({metric} {chosen.error_held_back:.4g} held back)"
-    for rung_index in range(1, max_lobes + 1):
-        if not names or (stopped and not exhaustive):
-            break
-        rung = sorted((_candidate(rung_index, (*base.lobes, m), combination, channels) for m in names),
-                      key=lambda c: (c.parameters, c.evaluation_ns, c.lobes))
-        full = rung if exhaustive else _screen(rung, base, fitted, held_back, combination, options, tolerance)
-        for c in full:
-            _fit_fully(c, base, fitted, held_back, combination, options)
+    rung: list[Candidate] = []
+    try:
+        _fit_fully(lambertian, None, fitted, held_back, combination, options, climb)
+        reason = f"no lobe model to add: the Lambertian alone ({metric} {chosen.error_held_back:.4g} held back)"
+        for rung_index in range(1, max_lobes + 1):
+            if not names or (stopped and not exhaustive):
+                break
+            rung = sorted((_candidate(rung_index, (*base.lobes, m), combination, channels) for m in names),
+                          key=lambda c: (c.parameters, c.evaluation_ns, c.lobes))
+            full = rung if exhaustive else _screen(rung, base, fitted, held_back, combination, options, tolerance, climb)
+            climb.screened(len(full))
+            for c in full:
+                _fit_fully(c, base, fitted, held_back, combination, options, climb)
+            done += rung
+            rung = []  # climbed: a cancel from here on is in the next rung
+            best = min(full, key=lambda c: c.error_held_back)
+            base = best
+            if stopped:
+                continue  # exhaustive: past the stop, climbed for the reference only
+            better = _improved(rung_index, full, chosen, tolerance, metric)
+            if better is not None:
+                chosen, reason = better[0], better[1] + ", and the ladder ends there"
+            else:
+                stopped = True
+                gain = 1.0 - best.error_held_back / chosen.error_held_back if chosen.error_held_back > 0 else 0.0
+                reason = (f"rung {rung_index} improves the held-back {metric} error by {gain:.1%} at best "
+                          f"({_label(best)}), not more than the tolerance {tolerance:.1%}: {_label(chosen)} is enough")
+    except _Cancelled as stop:
+        if stop.candidate is not None:
+            stop.candidate.status = "cancelled"
+        for c in rung:
+            c.status = c.status or "not reached"
         done += rung
-        best = min(full, key=lambda c: c.error_held_back)
-        base = best
-        if stopped:
-            continue  # exhaustive: past the stop, climbed for the reference only
-        gain = 1.0 - best.error_held_back / chosen.error_held_back if chosen.error_held_back > 0 else 0.0
-        if improves(chosen.error_held_back, best.error_held_back, tolerance):
-            chosen = _pick(full, tolerance)
-            reason = (f"rung {rung_index} improved the held-back {metric} error by {gain:.1%} (> {tolerance:.1%}); "
-                      f"{_label(chosen)} has the fewest parameters within the tolerance of its best "
-                      f"({_label(best)}), and the ladder ends there")
-        else:
-            stopped = True
-            reason = (f"rung {rung_index} improves the held-back {metric} error by {gain:.1%} at best "
-                      f"({_label(best)}), not more than the tolerance {tolerance:.1%}: {_label(chosen)} is enough")
+        chosen, reason = _cancelled(rung, chosen, stopped, tolerance, metric)
     if exhaustive:
         reason = "exhaustive run (every rung climbed, every candidate fully fitted): " + reason
     return Ladder(done, chosen, reason, tolerance, metric, fitted.size, held_back.size, time.perf_counter() - t0,
                   time.process_time() - c0)
+
+
+def chosen_fit(ladder: Ladder) -> FitResult:
+    """The pick's fit, saying which samples its error is measured on."""
+    result = ladder.chosen.result
+    result.scored_on = f"the {ladder.fitted_samples} samples Auto fitted"
+    return result
+
+
+def chosen_fitting(ladder: Ladder) -> Fitting:
+    """The <Fitting> that stores Auto's pick (the command line's --out and the window store
+    the same): its fit, plus its error on the held-back samples and the tolerance."""
+    fitting = fitting_of(chosen_fit(ladder))
+    fitting.statistics.update({"heldBackError": ladder.chosen.error_held_back,
+                               "heldBackSamples": ladder.held_back_samples, "autoTolerance": ladder.tolerance})
+    return fitting

@@ -197,6 +197,35 @@ class FitProcess(ChildJob):
         self.options = options
 
 
+def _run_auto(source, settings: dict, messages, cancel) -> None:
+    """The child's side of AutoFitProcess: the source's samples as the command line takes
+    them, then the ladder (fitting/auto.py), reporting after every screen and full fit."""
+    from brdflab.errors import BRDFLabError
+    from brdflab.fitting.auto import auto_fit
+    from brdflab.fitting.samples import samples_of
+
+    try:
+        samples = samples_of(source)
+        messages.put(("started", samples.size))
+        ladder = auto_fit(samples, progress=lambda p: messages.put(("progress", p)), cancel=cancel, **settings)
+        messages.put(("finished", ladder))
+    except BRDFLabError as e:
+        messages.put(("failed", str(e)))
+    except Exception as e:  # a bug in the worker must not take the window down
+        messages.put(("failed", f"Auto failed: {type(e).__name__}: {e}"))
+
+
+class AutoFitProcess(ChildJob):
+    """One Auto run: `progress` gives AutoProgress after each candidate, `finished` the
+    Ladder (the ladder so far, and its pick among the fully fitted, when cancelled).
+    `settings`: auto_fit's keyword arguments (tolerance, metric, combination, split, models)."""
+
+    what = "Auto fit"
+
+    def __init__(self, source, settings: dict, parent: QObject | None = None) -> None:
+        super().__init__(_run_auto, (source, settings), parent)
+        self.settings = settings
+
 def _run_study(out_dir: str, part: str, scene: dict, messages, cancel) -> None:
     """The child's side of StudyProcess: one study part on the window's scene, quick sizes."""
     from pathlib import Path

@@ -15,6 +15,7 @@ from brdflab.gui.export_dialog import export_dialog
 from brdflab import workspace as ws_ops
 from brdflab.lighting.envmap import load_environment
 from brdflab.errors import BRDFLabError
+from brdflab.fitting.auto import AutoProgress, Ladder, chosen_fitting
 from brdflab.fitting.lm import FitOptions, FitProgress, FitResult, material_from_lobes
 from brdflab.fitting.stored import fitting_of
 from brdflab.io.mesh import FORMATS as MESH_FORMATS
@@ -24,14 +25,17 @@ from brdflab.workspace import OPEN_FILTER, Workspace
 from brdflab.io.atomic import atomic_write
 from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
+from brdflab.gui.auto_ladder import AutoLadderPanel
 from brdflab.gui.auto_lighting import chosen, choose_job
-from brdflab.gui.background import FitProcess, LatestOnly
+from brdflab.gui.background import AutoFitProcess, FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
 from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
                                 MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
+from brdflab.models import get_model
 
-LAYOUT_VERSION = 3  # 2: the lobe viewer became the central view; 3: the Charts dock
+LAYOUT_VERSION = 4  # 2: the lobe viewer became the central view; 3: the Charts dock; 4: the Auto ladder dock
+LADDER_HEIGHT = 400  # pixels: the Auto ladder dock's reason and a dozen candidates
 CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
 <table cellspacing=4>
 <tr><td><b>Lobe viewer</b></td><td></td></tr>
@@ -42,7 +46,7 @@ CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
 <tr><td>drag (left button)</td><td>orbit the camera</td></tr>
 <tr><td>wheel</td><td>zoom</td></tr>
 <tr><td><b>Parameters</b></td><td>drag a slider or type a value and press Enter; Ctrl+Z / Ctrl+Shift+Z undo and redo</td></tr>
-<tr><td><b>Fitting</b></td><td>Ctrl+F fits, Esc stops (the best result so far is kept)</td></tr>
+<tr><td><b>Fitting</b></td><td>Ctrl+F fits, Ctrl+Shift+F fits Auto, Esc stops (the best result so far is kept)</td></tr>
 <tr><td><b>Files</b></td><td>Ctrl+O open, Ctrl+S save, drop a material, mesh or map on the window</td></tr>
 <tr><td><b>Layout</b></td><td>drag the bar between the two views; View → Reset layout</td></tr>
 </table>"""
@@ -139,7 +143,8 @@ class MainWindow(QMainWindow):
         self.undo_stack.indexChanged.connect(self._index_changed)
         self._unsaved_at_clean = False  # a new document (e.g. opened data) that no file holds yet
         self.workspace = Workspace.new()
-        self._thread: FitProcess | None = None  # the running fit
+        self._thread: FitProcess | AutoFitProcess | None = None  # the running fit
+        self._auto_ladder: tuple[Workspace, Ladder] | None = None  # the last Auto run and its document
         self._candidate = None
         self._loader = ThreadPoolExecutor(max_workers=1)
         self._loads: list = []
@@ -164,6 +169,7 @@ class MainWindow(QMainWindow):
         self.plots = PlotsPanel()
         self.xml = XmlView()
         self.charts = ChartsPanel(self._study_scene)
+        self.ladder = AutoLadderPanel()
         # the lobe viewer is the central, largest view (as in BRDFLab), the object view beside it
         self.views = QSplitter(Qt.Horizontal)
         self.views.setObjectName("views")
@@ -184,10 +190,11 @@ class MainWindow(QMainWindow):
             ("Plots", self.plots, Qt.BottomDockWidgetArea),
             ("XML", self.xml, Qt.BottomDockWidgetArea),
             ("Charts", self.charts, Qt.BottomDockWidgetArea),
+            ("Auto ladder", self.ladder, Qt.BottomDockWidgetArea),
         ):
             dock = QDockWidget(name, self)
             dock.setObjectName(name)
-            dock.setWidget(_scrolling(widget) if name not in ("Plots", "XML", "Charts") else widget)
+            dock.setWidget(_scrolling(widget) if name not in ("Plots", "XML", "Charts", "Auto ladder") else widget)
             self.addDockWidget(area, dock)
             self._docks[name] = dock
         # left: the material over the view options; bottom: fitting beside the plots (XML a tab)
@@ -195,6 +202,7 @@ class MainWindow(QMainWindow):
         self.splitDockWidget(self._docks["Fitting"], self._docks["Plots"], Qt.Horizontal)
         self.tabifyDockWidget(self._docks["Plots"], self._docks["XML"])
         self.tabifyDockWidget(self._docks["XML"], self._docks["Charts"])
+        self.tabifyDockWidget(self._docks["Charts"], self._docks["Auto ladder"])
         self._docks["Lobe options"].raise_()
         self._docks["Plots"].raise_()
         self.resizeDocks([self._docks["Material"]], [340], Qt.Horizontal)
@@ -281,8 +289,13 @@ class MainWindow(QMainWindow):
         stop = QAction("&Stop", self)
         stop.setShortcut("Esc")
         stop.triggered.connect(self.stop_fit)
+        auto = QAction("&Auto", self)
+        auto.setShortcut("Ctrl+Shift+F")
+        auto.triggered.connect(self.fitting._request_auto)
         fit_menu.addAction(run)
+        fit_menu.addAction(auto)
         fit_menu.addAction(stop)
+        fit_menu.addAction("Auto &ladder", self.show_ladder)
         view = self.menuBar().addMenu("&View")
         for dock in self._docks.values():
             view.addAction(dock.toggleViewAction())
@@ -360,6 +373,8 @@ class MainWindow(QMainWindow):
         self.object_view.busy.connect(lambda text: self.statusBar().showMessage(text, 0 if text else 1))
         f = self.fitting
         f.fit_requested.connect(self.start_fit)
+        f.auto_requested.connect(self.start_auto)
+        f.ladder_requested.connect(self.show_ladder)
         f.stop_requested.connect(self.stop_fit)
         f.fit_selected.connect(self._select_fit)
         f.refit_requested.connect(self._refit)
@@ -387,6 +402,7 @@ class MainWindow(QMainWindow):
         self.undo_stack.clear()
         self.material_changed()
         self.fittings_changed()
+        self._show_own_ladder()
         for message in workspace.messages:
             self.statusBar().showMessage(message, 10000)
 
@@ -924,7 +940,9 @@ class MainWindow(QMainWindow):
     def stop_fit(self) -> None:
         if self._thread is not None:
             self._thread.cancel.set()
-            self.fitting.status.setText("stopping: scoring the best parameters so far on every sample…")
+            self.fitting.status.setText("stopping Auto: keeping the pick among the candidates fully fitted…"
+                                        if isinstance(self._thread, AutoFitProcess) else
+                                        "stopping: scoring the best parameters so far on every sample…")
 
     def _fit_progress(self, p: FitProgress) -> None:
         self._candidate = p.material
@@ -960,6 +978,74 @@ class MainWindow(QMainWindow):
         self.fitting.status.setText(message)
         self.show_error(message)
         self.fittings_changed()
+
+    def start_auto(self, settings: dict) -> None:
+        """Auto (fitting/auto.py) on the source's samples, in a worker process like a fit; the
+        pick is stored as a new fitting of the document it started on, the ladder shown."""
+        if self._thread is not None:
+            return
+        source = self.workspace.original()
+        if source is None:
+            self.show_error("nothing to fit: the measured data of this material is missing")
+            return
+        try:
+            for name in settings["models"] or []:
+                get_model(name)  # an unknown name is said before any fit
+        except BRDFLabError as e:
+            self.show_error(f"Auto models: {e}")
+            return
+        self._fit_owner = self.workspace
+        self._fit_history = []
+        self._thread = AutoFitProcess(source, settings, self)
+        self._thread.started.connect(lambda n: self.fitting.status.setText(
+            f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…"))
+        self._thread.progress.connect(self._auto_progress)
+        self._thread.finished.connect(self._auto_finished)
+        self._thread.failed.connect(self._fit_failed)
+        self._thread.start()
+        self.fitting.set_running(True)
+        self.fitting.status.setText("starting Auto…")
+
+    def _auto_progress(self, p: AutoProgress) -> None:
+        bar = self.fitting.progress
+        bar.setRange(0, p.expected)
+        bar.setValue(p.step)
+        bar.setFormat("candidate %v of about %m")
+        self.fitting.status.setText(f"Auto: {p.stage} {p.candidate}, held back {p.error:.4g} "
+                                    f"(best so far {p.best_error:.4g})")
+
+    def _auto_finished(self, ladder: Ladder) -> None:
+        owner, self._fit_owner = self._fit_owner, None
+        self._end_fit()
+        if owner is not self.workspace:  # its document was closed: never store it in another
+            self.statusBar().showMessage("the running Auto fit was stopped: its document was closed", 10000)
+            self.fitting.status.setText("Auto stopped (its document was closed)")
+            return
+        old = (tuple(self.workspace.document.fittings), self.workspace.shown_fit)
+        new_list = list(old[0]) + [chosen_fitting(ladder)]
+        self.undo_stack.push(ReplaceFittings(self, old, (tuple(new_list), len(new_list) - 1), "Auto fit"))
+        self._auto_ladder = (owner, ladder)
+        self._show_own_ladder()
+        self.show_ladder()
+        chosen = ladder.chosen
+        stopped = " (cancelled)" if ladder.reason.startswith("cancelled") else ""
+        self.fitting.status.setText(f"Auto chose {'+'.join(('Lambertian', *chosen.lobes))}: held-back "
+                                    f"{ladder.metric} error {chosen.error_held_back:.5g}, {ladder.seconds:.1f} s"
+                                    f"{stopped}; see the Auto ladder")
+
+    def _show_own_ladder(self) -> None:
+        """The ladder dock shows the last Auto run of the shown document only."""
+        own = self._auto_ladder is not None and self._auto_ladder[0] is self.workspace
+        self.ladder.show_ladder(self._auto_ladder[1] if own else None)
+        self.fitting.ladder_button.setEnabled(own)
+
+    def show_ladder(self) -> None:
+        """The Auto ladder dock in front, tall enough for a ladder (the views keep the rest)."""
+        dock = self._docks["Auto ladder"]
+        dock.show()
+        dock.raise_()
+        if not dock.isFloating() and dock.height() < LADDER_HEIGHT:
+            self.resizeDocks([dock], [min(LADDER_HEIGHT, self.height() // 2)], Qt.Vertical)
 
     def _select_fit(self, index: int) -> None:
         self.workspace.shown_fit = index

@@ -16,6 +16,7 @@ from PySide6.QtWidgets import (
     QGridLayout,
     QHBoxLayout,
     QLabel,
+    QLineEdit,
     QListWidget,
     QPlainTextEdit,
     QProgressBar,
@@ -34,6 +35,7 @@ from brdflab.gui.auto_lighting import details, summary
 from brdflab.gui.background import LatestOnly
 from brdflab.lighting.auto import DEFAULT_TOLERANCE
 from brdflab.material.albedo import energy_check
+from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
 from brdflab.fitting.lm import METRICS
 from brdflab.material.analytic import AnalyticMaterial
@@ -505,9 +507,13 @@ class ObjectControls(QWidget):
 
 
 class FittingPanel(QWidget):
-    """Stored fits, and a new fit: lobes, strategy, metric, samples; Fit / Stop."""
+    """Stored fits, and a new fit: lobes, strategy, metric, samples; Fit / Stop. Auto climbs
+    the ladder of lobe sets instead (fitting/auto.py) within a tolerance, on a split of the
+    source's samples, over the named models."""
 
     fit_requested = Signal(list, str, str, str, int)  # lobes, combination, metric, sample kind, size
+    auto_requested = Signal(dict)  # auto_fit's settings: tolerance, metric, combination, split, models
+    ladder_requested = Signal()
     stop_requested = Signal()
     fit_selected = Signal(int)
     refit_requested = Signal(int)
@@ -517,6 +523,9 @@ class FittingPanel(QWidget):
         super().__init__()
         self.fits = QListWidget()
         self.fits.currentRowChanged.connect(lambda r: r >= 0 and self.fit_selected.emit(r))
+        # the list takes the height left over (at least three rows): the controls below stay in view
+        self.fits.setSizePolicy(QSizePolicy.Expanding, QSizePolicy.Ignored)
+        self.fits.setMinimumHeight(3 * self.fits.fontMetrics().height() + 12)
         self.lobes = QComboBox()
         self.lobes.setEditable(True)
         self.lobes.addItems(["Lambertian,LafortuneIso", "Lambertian,CookTorrance", "Lambertian,Ward",
@@ -532,12 +541,31 @@ class FittingPanel(QWidget):
         self.sample_size = QSpinBox(minimum=1000, maximum=2_000_000, value=50_000, singleStep=10_000)
         self.fit_button, self.stop_button = QPushButton("Fit"), QPushButton("Stop")
         self.stop_button.setEnabled(False)
+        self.auto_button = QPushButton("Auto")
+        self.auto_button.setToolTip("Climb from the Lambertian to three lobes, fitting half of a split of the "
+                                    "samples and scoring the other half; stop when more lobes no longer pay")
+        self.tolerance = QDoubleSpinBox(decimals=1, minimum=0.0, maximum=99.9, value=100 * DEFAULT_TOLERANCE,
+                                        singleStep=0.5, suffix=" %")
+        self.tolerance.setToolTip("Auto: a rung of lobes must improve the held-back error by more than this "
+                                  "(relative) to be climbed")
+        self.auto_models = QLineEdit()
+        self.auto_models.setPlaceholderText("all models")
+        self.auto_models.setToolTip("Auto: the lobe models to try, comma-separated (empty: all of "
+                                    + ", ".join(m for m in model_names() if m != "Lambertian") + ")")
+        self.auto_split = QSpinBox(minimum=100, maximum=2_000_000, value=DEFAULT_SPLIT, singleStep=5_000)
+        self.auto_split.setToolTip("Auto: samples fitted, and as many held back")
+        self.ladder_button = QPushButton("Ladder")
+        self.ladder_button.setToolTip("The last Auto run's candidates, errors and choice")
+        self.ladder_button.setEnabled(False)
         self.refit_button, self.promote_button = QPushButton("Fit again from this"), QPushButton("Make main material")
         self.progress = QProgressBar()
         self.progress.setRange(0, 0)
         self.progress.setVisible(False)
         self.status = QLabel("")
+        self.status.setWordWrap(True)  # a long status must not widen the dock
         self.fit_button.clicked.connect(self._request)
+        self.auto_button.clicked.connect(self._request_auto)
+        self.ladder_button.clicked.connect(self.ladder_requested.emit)
         self.stop_button.clicked.connect(self.stop_requested.emit)
         self.refit_button.clicked.connect(lambda: self.fits.currentRow() >= 0 and self.refit_requested.emit(self.fits.currentRow()))
         self.promote_button.clicked.connect(lambda: self.fits.currentRow() >= 0 and self.promote_requested.emit(self.fits.currentRow()))
@@ -556,14 +584,32 @@ class FittingPanel(QWidget):
         grid.addWidget(self.sample_kind, 5, 1)
         grid.addWidget(self.sample_size, 5, 2, 1, 2)
         grid.addWidget(self.fit_button, 6, 0, 1, 2)
-        grid.addWidget(self.stop_button, 6, 2, 1, 2)
-        grid.addWidget(self.progress, 7, 0, 1, 4)
-        grid.addWidget(self.status, 8, 0, 1, 4)
+        grid.addWidget(self.auto_button, 6, 2)
+        grid.addWidget(self.stop_button, 6, 3)
+        grid.addWidget(QLabel("tolerance"), 7, 0)
+        grid.addWidget(self.tolerance, 7, 1)
+        grid.addWidget(QLabel("split"), 7, 2)
+        grid.addWidget(self.auto_split, 7, 3)
+        grid.addWidget(QLabel("models"), 8, 0)
+        grid.addWidget(self.auto_models, 8, 1, 1, 2)
+        grid.addWidget(self.ladder_button, 8, 3)
+        grid.addWidget(self.progress, 9, 0, 1, 4)
+        grid.addWidget(self.status, 10, 0, 1, 4)
+        grid.setRowStretch(1, 1)  # spare height goes to the stored fits
 
     def _request(self) -> None:
         lobes = [s.strip() for s in self.lobes.currentText().split(",") if s.strip()]
         self.fit_requested.emit(lobes, self.strategy.currentText(), self.metric_box.currentText(),
                                 self.sample_kind.currentText(), self.sample_size.value())
+
+    def auto_settings(self) -> dict:
+        """auto_fit's settings from the panel (models: None for all)."""
+        models = [m.strip() for m in self.auto_models.text().split(",") if m.strip()]
+        return {"tolerance": self.tolerance.value() / 100.0, "metric": self.metric_box.currentText(),
+                "combination": self.strategy.currentText(), "split": self.auto_split.value(), "models": models or None}
+
+    def _request_auto(self) -> None:
+        self.auto_requested.emit(self.auto_settings())
 
     def show_fits(self, fittings, shown: int | None, energy: list | None = None) -> None:
         """The stored fits; `energy` (one summary per fit, when known) marks those that do not
@@ -571,7 +617,8 @@ class FittingPanel(QWidget):
         with QSignalBlocker(self.fits):
             self.fits.clear()
             for k, f in enumerate(fittings):
-                lobes = "+".join(dict.fromkeys(l.model.name for l in f.material.lobes))
+                # one name per lobe (Auto picks repeat a model), not per channel of a Fixed fit
+                lobes = "+".join(l.model.name for l in f.material.lobes if l.channel in (None, 0))
                 err = "—" if f.error is None else f"{f.error:.5g}"
                 metric = f.statistics.get("metric", "")
                 summary = energy[k] if energy is not None and k < len(energy) else None
@@ -582,8 +629,11 @@ class FittingPanel(QWidget):
 
     def set_running(self, running: bool) -> None:
         self.fit_button.setEnabled(not running)
+        self.auto_button.setEnabled(not running)
         self.stop_button.setEnabled(running)
         self.progress.setVisible(running)
+        self.progress.setRange(0, 0)  # busy until a run reports how far it is
+        self.progress.setFormat("%p%")
 
 
 class PlotsPanel(QWidget):
