@@ -53,6 +53,7 @@ def _sobol(n_log2: int, seed: int = TABLE_SEED) -> np.ndarray:
 PROFILE_ANGLES = 96  # view elevations tabulated for isotropic sources
 PROFILE_SAMPLES_LOG2 = 12  # samples per tabulated elevation (isotropic sources)
 TEXEL_SAMPLES_LOG2 = 8  # samples per texel (anisotropic sources)
+TURN_CHUNK = 2048  # texels turned about z at a time (isotropic sources)
 
 
 @dataclass(frozen=True)
@@ -142,8 +143,12 @@ def isotropic_values(source, proxy: AnalyticMaterial, views: np.ndarray, theta_m
     profile_views = np.stack([np.sin(grid[needed]), np.zeros(len(needed)), np.cos(grid[needed])], axis=-1)
     profile = view_integrals(source, proxy, profile_views, order, samples_log2, chunk_samples, seed)
     t = (position - below)[:, None, None]
-    low, high = profile[slot[:len(views)]], profile[slot[len(views):]]
-    return sh._rotate_z_many((1.0 - t) * low + t * high, np.arctan2(views[:, 1], views[:, 0]))
+    low, high, angle = slot[:len(views)], slot[len(views):], np.arctan2(views[:, 1], views[:, 0])
+    out = np.empty((len(views),) + profile.shape[1:])
+    for start in range(0, len(views), TURN_CHUNK):  # in chunks: the temporaries stay in cache
+        part = slice(start, start + TURN_CHUNK)
+        out[part] = sh._rotate_z_many((1.0 - t[part]) * profile[low[part]] + t[part] * profile[high[part]], angle[part])
+    return out
 
 
 def view_integrals(source, proxy: AnalyticMaterial, views: np.ndarray, order: int, samples_log2: int,
