@@ -1,6 +1,7 @@
 """Auto SH tables against an exhaustive sweep of the same ladder.
 
     python benchmarks/sh_table_auto.py [--orders 4,8] [--materials a,b,...] [--tolerance T] [--json OUT]
+    python benchmarks/sh_table_auto.py --report [--json OUT]   # the docs' table from the JSON
 
 Per (material, order): a converged reference, c(v) at REFERENCE_VIEWS random views (uniform in
 solid angle, θ ≤ 80°, seeded) integrated directly with 2^16 samples each (four independent
@@ -124,13 +125,33 @@ def case(name: str, source, order: int, tolerance: float) -> dict:
     return row
 
 
+def report(result: dict) -> str:
+    """The Markdown table of docs/benchmarks.md, from the JSON alone."""
+    pct = lambda x: f"{100 * x:.2f} %"
+    label = lambda s: f"{s['size']}²×2^{s['samples_log2']}"
+    lines = ["| material | L | Auto's pick | estimated | true error | hit | cheapest truly within (by time) | its error "
+             "| build s: pick / cheapest | cost ratio | Auto's decision s | standard 128² table: error, build s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in result["cases"]:
+        a, low = c["auto"], c["cheapest_meeting"]
+        lines.append(f"| {c['material']} | {c['order']} | {label(a)} | {pct(a['estimated_error'])} | {pct(c['pick_true_error'])} "
+                     f"| {'hit' if c['hit'] else '**miss**'} | {label(low) if low else '—'} | {pct(low['true_error']) if low else '—'} "
+                     f"| {c['pick_build_seconds']:.3f} / {low['build_seconds']:.3f} | {c['cost_ratio']:.2f} "
+                     f"| {c['auto_seconds']:.2f} | {pct(c['standard']['true_error'])}, {c['standard']['build_seconds']:.2f} |")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--orders", default="4,8")
     parser.add_argument("--materials", default=",".join(materials()))
     parser.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE)
     parser.add_argument("--json", default=str(Path(__file__).resolve().parents[1] / "docs" / "bench" / "sh_table_auto.json"))
+    parser.add_argument("--report", action="store_true", help="print the Markdown table of an existing --json and stop")
     args = parser.parse_args()
+    if args.report:
+        print(report(json.loads(Path(args.json).read_text())))
+        return
     known = materials()
     result = {"tolerance": args.tolerance, "reference_views": REFERENCE_VIEWS,
               "reference_samples": len(REFERENCE_SEEDS) << REFERENCE_LOG2, "cases": []}
