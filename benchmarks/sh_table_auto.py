@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 from brdflab.io.atomic import atomic_write  # noqa: E402
 from brdflab.lighting.sh_table_auto import (DEFAULT_TOLERANCE, MAX_VIEW_THETA_DEG, ErrorEstimate,  # noqa: E402
                                             build_cost, choose_table, ladder, luminance, table_error)
-from brdflab.lighting.sh_tables import STANDARD, _proxy, table_for, view_integrals  # noqa: E402
+from brdflab.lighting.sh_tables import STANDARD, sampling_proxy, table_for, view_integrals  # noqa: E402
 from brdflab.material.analytic import AnalyticMaterial, Lobe  # noqa: E402
 from brdflab.sources.measured import read_slice  # noqa: E402
 
@@ -70,7 +70,7 @@ def reference_views(n: int = REFERENCE_VIEWS, seed: int = 5) -> np.ndarray:
 
 def reference(source, order: int, views: np.ndarray) -> tuple[np.ndarray, float]:
     """Converged integrals at views, and their own relative error (spread of the scramblings / 2)."""
-    proxy = _proxy(source)
+    proxy = sampling_proxy(source)
     runs = np.stack([view_integrals(source, proxy, views, order, REFERENCE_LOG2, seed=s) for s in REFERENCE_SEEDS])
     mean = runs.mean(axis=0)
     lum = luminance(runs)

@@ -13,7 +13,7 @@ import pytest
 
 from brdflab.lighting.sh_table_auto import (AutoTable, build_cost, choose_table, error_views, known_choice, ladder,
                                             luminance, relative_rms, table_error)
-from brdflab.lighting.sh_tables import (STANDARD, TableSetting, _proxy, cached_table, is_cached, table_for,
+from brdflab.lighting.sh_tables import (STANDARD, TableSetting, sampling_proxy, cached_table, is_cached, table_for,
                                         view_integrals)
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 
@@ -30,7 +30,7 @@ def lambertian() -> AnalyticMaterial:
 
 def converged(source, order: int, views: np.ndarray) -> np.ndarray:
     """The integrals at views with 2^14 samples in four independent scramblings (none the table's)."""
-    proxy = _proxy(source)
+    proxy = sampling_proxy(source)
     return np.mean([view_integrals(source, proxy, views, order, 12, seed=s) for s in (71, 72, 73, 74)], axis=0)
 
 

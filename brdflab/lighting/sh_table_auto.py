@@ -32,7 +32,7 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.lighting import sh
-from brdflab.lighting.sh_tables import (TABLE_SEED, TableSetting, _identity, _proxy, isotropic_values, lookup, lookup_corners,
+from brdflab.lighting.sh_tables import (TABLE_SEED, TableSetting, material_identity, sampling_proxy, isotropic_values, lookup, lookup_corners,
                                         parabolic_views, parse_setting, table_for, texel_centre_views, view_integrals)
 
 DEFAULT_TOLERANCE = 0.01
@@ -145,7 +145,7 @@ class ErrorEstimate:
 
     def __init__(self, source, order: int) -> None:
         self.source, self.order = source, sh.check_order(order)
-        self.proxy = _proxy(source)
+        self.proxy = sampling_proxy(source)
         self.isotropic = bool(getattr(source, "isotropic", False))
         self._resolution: dict[int, float] = {}
         self._sampling: dict[int, float] = {}
@@ -236,7 +236,7 @@ def resolve(source, order: int, table: TableSetting | AutoTable) -> TableSetting
     (material, order, tolerance), or the setting itself."""
     if not isinstance(table, AutoTable):
         return table
-    key = (_identity(source), order, table.tolerance)
+    key = (material_identity(source), order, table.tolerance)
     if key not in _CHOICES:
         remember_choice(source, order, table, choose_table(source, order, table.tolerance))
     return _CHOICES[key].setting
@@ -244,13 +244,13 @@ def resolve(source, order: int, table: TableSetting | AutoTable) -> TableSetting
 
 def known_choice(source, order: int, table: AutoTable) -> TableChoice | None:
     """Auto's pick if it has been made (here, or in a worker and remembered)."""
-    return _CHOICES.get((_identity(source), order, table.tolerance))
+    return _CHOICES.get((material_identity(source), order, table.tolerance))
 
 
 def remember_choice(source, order: int, table: AutoTable, choice: TableChoice) -> None:
     if len(_CHOICES) > 32:
         _CHOICES.pop(next(iter(_CHOICES)))
-    _CHOICES[(_identity(source), order, table.tolerance)] = choice
+    _CHOICES[(material_identity(source), order, table.tolerance)] = choice
 
 
 def build_table(source, order: int, table: TableSetting | AutoTable) -> tuple[TableChoice | None, TableSetting, np.ndarray]:

@@ -104,7 +104,7 @@ def brdf_table(source, order: int, size: int = DEFAULT_SIZE, samples_log2: int |
     order = sh.check_order(order)
     views, _ = parabolic_views(size)
     views = views.reshape(-1, 3)
-    proxy = _proxy(source)
+    proxy = sampling_proxy(source)
     if getattr(source, "isotropic", False):
         log2 = PROFILE_SAMPLES_LOG2 if samples_log2 is None else samples_log2
         out = isotropic_values(source, proxy, views, float(np.arccos(np.clip(views[:, 2], -1.0, 1.0)).max()),
@@ -122,7 +122,8 @@ def table_for(source, order: int, setting: TableSetting) -> np.ndarray:
     return brdf_table(source, order, setting.size, setting.samples_log2, angles=setting.profile_angles)
 
 
-def _proxy(source) -> AnalyticMaterial:
+def sampling_proxy(source) -> AnalyticMaterial:
+    """The lobes whose mixture samples the source's integrals (its own, or a fitted proxy)."""
     proxy = proxy_lobes(source)
     if not proxy.lobes:
         raise BRDFLabError("the material has no lobes to tabulate")
@@ -236,14 +237,16 @@ def remember_table(source, order: int, table: np.ndarray, setting: TableSetting 
 
 
 def is_cached(source, order: int, setting: TableSetting = STANDARD) -> bool:
+    """Whether cached_table would return at once."""
     return _key(source, order, setting) in _CACHE
 
 
 def _key(source, order: int, setting: TableSetting) -> tuple:
-    return _identity(source), order, setting.of(source)
+    return material_identity(source), order, setting.of(source)
 
 
-def _identity(source):
+def material_identity(source):
+    """What a table is remembered by: an analytic material's description, else the object."""
     if isinstance(source, AnalyticMaterial):
         import json
 
