@@ -308,7 +308,7 @@ def _sh_table_used(renderer) -> tuple[dict, str]:
         return {"auto": True, **choice.as_dict()}, f"SH table: auto picked {choice.label}"
     setting = renderer.sh_table.of(source)
     return ({"auto": False, "size": setting.size, "samples_log2": setting.samples_log2},
-            f"SH table: {setting.size}² × 2^{setting.samples_log2} samples")
+            f"SH table: {setting.text}")
 
 
 def cmd_render(args: argparse.Namespace) -> int:

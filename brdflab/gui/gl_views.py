@@ -334,8 +334,7 @@ class ObjectView(_GLView):
             choice = known_choice(source, r.sh_order, r.sh_table)
             note = "" if choice is None else choice.label
         else:
-            setting = r.sh_table.of(source)
-            note = f"{setting.size}² × 2^{setting.samples_log2} samples"
+            note = r.sh_table.of(source).text
         if note != self._table_note:
             self._table_note = note
             self.table_shown.emit(note)

@@ -79,8 +79,7 @@ class TableChoice:
 
     @property
     def label(self) -> str:
-        s = self.setting
-        return (f"{s.size}² texels × 2^{s.samples_log2} samples, est. error {100 * self.estimated_error:.2f} %"
+        return (f"{self.setting.text}, est. error {100 * self.estimated_error:.2f} %"
                 + ("" if self.within else f" (above {100 * self.tolerance:g} %)"))
 
     def as_dict(self) -> dict:

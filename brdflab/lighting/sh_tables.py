@@ -73,6 +73,11 @@ class TableSetting:
     def label(self) -> str:
         return f"{self.size}×2^{self.samples_log2}" if self.samples_log2 is not None else f"{self.size}×default"
 
+    @property
+    def text(self) -> str:
+        """For people: '64² texels × 2^10 samples'."""
+        return f"{self.size}² texels × 2^{self.samples_log2} samples" if self.samples_log2 is not None else f"{self.size}² texels"
+
     def of(self, source) -> "TableSetting":
         """The same setting with the source's default sample count filled in."""
         if self.samples_log2 is not None:
