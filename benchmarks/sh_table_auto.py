@@ -2,6 +2,7 @@
 
     python benchmarks/sh_table_auto.py [--orders 4,8] [--materials a,b,...] [--tolerance T] [--json OUT]
     python benchmarks/sh_table_auto.py --report [--json OUT]   # the docs' table from the JSON
+    python benchmarks/sh_table_auto.py --reuse-sweep OLD.json   # new estimates, the same sweep
 
 Per (material, order): a converged reference, c(v) at REFERENCE_VIEWS random views (uniform in
 solid angle, θ ≤ 80°, seeded) integrated directly with 2^16 samples each (four independent
@@ -91,19 +92,30 @@ def timed_build(source, order: int, setting) -> tuple[np.ndarray, float]:
             return table, best
 
 
-def case(name: str, source, order: int, tolerance: float) -> dict:
-    views = reference_views()
-    t0 = time.process_time()
-    truth, noise = reference(source, order, views)
-    row = {"material": name, "order": order, "isotropic": bool(source.isotropic), "tolerance": tolerance,
-           "reference_error": noise, "reference_seconds": time.process_time() - t0, "settings": []}
+def case(name: str, source, order: int, tolerance: float, swept: dict | None = None) -> dict:
+    """One (material, order); `swept`: an earlier run's row of the same case, whose reference,
+    build times and true errors are taken as they are (they do not depend on the estimator)."""
     estimate = ErrorEstimate(source, order)
+    if swept is None:
+        views = reference_views()
+        t0 = time.process_time()
+        truth, noise = reference(source, order, views)
+        row = {"reference_error": noise, "reference_seconds": time.process_time() - t0}
+    else:
+        row = {k: swept[k] for k in ("reference_error", "reference_seconds")}
+        old = {(s["size"], s["samples_log2"]): s for s in swept["settings"]}
+    row.update(material=name, order=order, isotropic=bool(source.isotropic), tolerance=tolerance, settings=[],
+               sweep_reused=swept is not None)
     for setting in ladder(source):
-        table, seconds = timed_build(source, order, setting)
+        if swept is None:
+            table, seconds = timed_build(source, order, setting)
+            true_error = table_error(table, truth, views)
+        else:
+            seconds, true_error = (old[(setting.size, setting.samples_log2)][k] for k in ("build_seconds", "true_error"))
         res, mc = estimate.resolution(setting.size), estimate.sampling(setting.samples_log2)
         row["settings"].append({"size": setting.size, "samples_log2": setting.samples_log2,
                                 "cost": build_cost(source, setting), "build_seconds": seconds,
-                                "true_error": table_error(table, truth, views), "estimated_error": math.hypot(res, mc),
+                                "true_error": true_error, "estimated_error": math.hypot(res, mc),
                                 "resolution_estimate": res, "sampling_estimate": mc})
     t0 = time.process_time()
     choice = choose_table(source, order, tolerance)
@@ -148,7 +160,12 @@ def main() -> None:
     parser.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE)
     parser.add_argument("--json", default=str(Path(__file__).resolve().parents[1] / "docs" / "bench" / "sh_table_auto.json"))
     parser.add_argument("--report", action="store_true", help="print the Markdown table of an existing --json and stop")
+    parser.add_argument("--reuse-sweep", metavar="JSON",
+                        help="take the references, build times and true errors from an earlier run's JSON "
+                             "(same ladder and tables); estimate and choose anew")
     args = parser.parse_args()
+    swept = {} if not args.reuse_sweep else {(c["material"], c["order"]): c
+                                             for c in json.loads(Path(args.reuse_sweep).read_text())["cases"]}
     if args.report:
         print(report(json.loads(Path(args.json).read_text())))
         return
@@ -158,7 +175,7 @@ def main() -> None:
     for name in args.materials.split(","):
         source = known[name]()
         for order in (int(o) for o in args.orders.split(",")):
-            row = case(name, source, order, args.tolerance)
+            row = case(name, source, order, args.tolerance, swept.get((name, order)))
             result["cases"].append(row)
             hits = [c["hit"] for c in result["cases"]]
             result["summary"] = {"cases": len(hits), "hits": sum(hits),
