@@ -126,10 +126,10 @@ def case(name: str, source, order: int, tolerance: float, swept: dict | None = N
     cheapest = min(meeting, key=lambda s: s["build_seconds"]) if meeting else None
     cheapest_cost = min(meeting, key=lambda s: s["cost"]) if meeting else None
     standard = STANDARD.of(source)
+    brief = lambda s: None if s is None else {k: s[k] for k in ("size", "samples_log2", "build_seconds", "cost", "true_error")}
     row.update(auto=choice.as_dict(), pick_true_error=pick["true_error"], hit=pick["true_error"] <= tolerance,
                pick_build_seconds=pick["build_seconds"],
-               cheapest_meeting=None if cheapest is None else {k: cheapest[k] for k in ("size", "samples_log2", "build_seconds", "cost", "true_error")},
-               cheapest_meeting_by_cost=None if cheapest_cost is None else {k: cheapest_cost[k] for k in ("size", "samples_log2", "build_seconds", "cost", "true_error")},
+               cheapest_meeting=brief(cheapest), cheapest_meeting_by_cost=brief(cheapest_cost),
                time_ratio=None if cheapest is None else pick["build_seconds"] / max(cheapest["build_seconds"], 1e-9),
                cost_ratio=None if cheapest_cost is None else pick["cost"] / cheapest_cost["cost"],
                standard={"size": standard.size, "samples_log2": standard.samples_log2,

@@ -13,7 +13,7 @@ import pytest
 
 from brdflab.lighting.sh_table_auto import (AutoTable, build_cost, choose_table, error_views, known_choice, ladder,
                                             luminance, relative_rms, table_error)
-from brdflab.lighting.sh_tables import (STANDARD, TableSetting, sampling_proxy, cached_table, is_cached, table_for,
+from brdflab.lighting.sh_tables import (STANDARD, TableSetting, cached_table, is_cached, sampling_proxy, table_for,
                                         view_integrals)
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 

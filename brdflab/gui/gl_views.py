@@ -307,8 +307,8 @@ class ObjectView(_GLView):
         if self.settings.mode == "sh" and not r.sh_table_ready():
             source = r.source if r.source is not None else r.material
             what = "choosing and building" if isinstance(r.sh_table, AutoTable) else "building"
-            return (build_table, (source, r.sh_order, r.sh_table), partial(self._remember_table, source, r.sh_order, r.sh_table),
-                    f"{what} the order-{r.sh_order} SH table…")
+            return (build_table, (source, r.sh_order, r.sh_table),
+                    partial(self._remember_table, source, r.sh_order, r.sh_table), f"{what} the order-{r.sh_order} SH table…")
         if self.settings.mode == "prefiltered" and r.environment is not None and not r.prefiltered_ready():
             return build_stack, (r.environment, map_key(r.environment)), remember_stack, "prefiltering the environment map…"
         return None

@@ -33,8 +33,9 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.lighting import sh
-from brdflab.lighting.sh_tables import (TABLE_SEED, TableSetting, material_identity, sampling_proxy, isotropic_values, lookup, lookup_corners,
-                                        parabolic_views, parse_setting, table_for, texel_centre_views, view_integrals)
+from brdflab.lighting.sh_tables import (TABLE_SEED, TableSetting, isotropic_values, lookup, lookup_corners,
+                                        material_identity, parabolic_views, sampling_proxy, table_for,
+                                        texel_centre_views, view_integrals)
 
 DEFAULT_TOLERANCE = 0.01
 MAX_VIEW_THETA_DEG = 80.0  # the error's view domain, as the fit errors' (CONVENTIONS.md)
@@ -58,10 +59,6 @@ class AutoTable:
     """Ask for the cheapest table whose estimated error is within `tolerance`."""
 
     tolerance: float = DEFAULT_TOLERANCE
-
-    @property
-    def label(self) -> str:
-        return f"auto ({100 * self.tolerance:g} %)"
 
 
 @dataclass(frozen=True)
@@ -260,8 +257,3 @@ def build_table(source, order: int, table: TableSetting | AutoTable) -> tuple[Ta
     choice = choose_table(source, order, table.tolerance) if isinstance(table, AutoTable) else None
     setting = choice.setting if choice is not None else table
     return choice, setting, table_for(source, order, setting)
-
-
-def parse_table(text: str, tolerance: float = DEFAULT_TOLERANCE) -> TableSetting | AutoTable:
-    """'auto' → AutoTable(tolerance); 'SIZExLOG2' → that TableSetting."""
-    return AutoTable(tolerance) if text.strip().lower() == "auto" else parse_setting(text)

@@ -76,7 +76,8 @@ class TableSetting:
     @property
     def text(self) -> str:
         """For people: '64² texels × 2^10 samples'."""
-        return f"{self.size}² texels × 2^{self.samples_log2} samples" if self.samples_log2 is not None else f"{self.size}² texels"
+        texels = f"{self.size}² texels"
+        return texels if self.samples_log2 is None else f"{texels} × 2^{self.samples_log2} samples"
 
     def of(self, source) -> "TableSetting":
         """The same setting with the source's default sample count filled in."""
