@@ -287,6 +287,30 @@ def _resolve_auto(args: argparse.Namespace, source, renderer):
     return choice
 
 
+def _sh_table(args: argparse.Namespace):
+    """--sh-table as the renderer takes it: a TableSetting, or AutoTable(--sh-table-tolerance)."""
+    from brdflab.lighting.sh_table_auto import AutoTable
+
+    if args.sh_table != "auto":
+        return args.sh_table
+    if not 0.0 < args.sh_table_tolerance < 1.0:
+        raise BRDFLabError(f"--sh-table-tolerance {args.sh_table_tolerance:g} must be between 0 and 1")
+    return AutoTable(args.sh_table_tolerance)
+
+
+def _sh_table_used(renderer) -> tuple[dict, str]:
+    """The table the SH render used, for the JSON and one human line (Auto: its pick and why)."""
+    from brdflab.lighting.sh_table_auto import AutoTable, known_choice
+
+    source = renderer.source if renderer.source is not None else renderer.material
+    if isinstance(renderer.sh_table, AutoTable):
+        choice = known_choice(source, renderer.sh_order, renderer.sh_table)
+        return {"auto": True, **choice.as_dict()}, f"SH table: auto picked {choice.label}"
+    setting = renderer.sh_table.of(source)
+    return ({"auto": False, "size": setting.size, "samples_log2": setting.samples_log2},
+            f"SH table: {setting.text}")
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from brdflab.lighting.envmap import load_environment, write_exr
     from brdflab.io.mesh import default_mesh, load_mesh
@@ -324,6 +348,8 @@ def cmd_render(args: argparse.Namespace) -> int:
         renderer.set_sh_order(args.sh_order, None if args.sh_window == "none" else args.sh_window)
         renderer.sh_shadows = args.sh_shadows
         renderer.sh_variant = args.sh_variant
+        if args.sh_table is not None:
+            renderer.set_sh_table(_sh_table(args))
     renderer.render(RenderSettings(**{**settings.__dict__, "width": 8, "height": 8, "samples": 1}))  # compile
     t0 = time.perf_counter()
     image = renderer.render(settings)
@@ -346,6 +372,9 @@ def cmd_render(args: argparse.Namespace) -> int:
     if auto is not None:
         payload["auto"] = auto.as_dict()
         human = "\n".join(auto.reasons + [human])
+    if args.mode == "sh":
+        payload["settings"]["sh_table"], line = _sh_table_used(renderer)
+        human = "\n".join([line, human])
     _emit(args, payload, human)
     return 0
 
@@ -487,7 +516,7 @@ def _add(sub, name: str, help: str, **kwargs) -> argparse.ArgumentParser:
 
 def build_parser() -> argparse.ArgumentParser:
     from brdflab import __version__
-    from brdflab.cli_options import Parser, finite_float, image_size, int_in, material_path
+    from brdflab.cli_options import Parser, finite_float, image_size, int_in, material_path, sh_table
     from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
 
     parser = Parser(prog="brdflab", description="A laboratory for reflectance. Without a command it opens "
@@ -594,6 +623,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"FIS samples per pixel (1..{MAX_RENDER_SAMPLES})")
     p.add_argument("--sh-order", type=int_in(1, 16, name="SH order"), default=5, help="bands of the SH mode (order² coefficients), 1..16")
     p.add_argument("--sh-window", choices=["none", "hanning", "lanczos"], default="none", help="against ringing")
+    p.add_argument("--sh-table", type=sh_table, default=None, metavar="auto|SIZExLOG2",
+                   help="the SH mode's BRDF table: SIZE² texels and 2^LOG2 samples per integral (e.g. 64x10), "
+                        "or auto: the cheapest within --sh-table-tolerance (default: 128 texels, 2^12 samples per "
+                        "elevation for isotropic sources, 2^8 per texel for anisotropic ones)")
+    p.add_argument("--sh-table-tolerance", type=finite_float, default=0.01,
+                   help="--sh-table auto: the table's relative RMS error over views to stay within")
     p.add_argument("--sh-shadows", action="store_true", help="self-shadowing by precomputed transfer (meshes)")
     p.add_argument("--sh-variant", choices=["dynamic", "fixed-light", "fixed-view"], default="dynamic",
                    help="per-pixel rotation, or the paper's per-vertex precomputation for a fixed light or view")

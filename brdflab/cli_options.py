@@ -85,3 +85,17 @@ def material_path(text: str) -> str:
         return str(resolve_material(text))
     except BRDFLabError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def sh_table(text: str):
+    """An argparse type for `--sh-table`: 'auto', or SIZExLOG2 as a TableSetting (imported only
+    when the option is given, so that --help stays light)."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    from brdflab.errors import BRDFLabError
+    from brdflab.lighting.sh_tables import parse_setting
+
+    try:
+        return parse_setting(text)
+    except BRDFLabError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None

@@ -165,6 +165,7 @@ class ObjectView(_GLView):
     STEP_BUDGET_S = 0.025  # one refinement step may hold the GUI thread this long
     busy = Signal(str)  # a long preparation started ("" when it is over)
     ringing = Signal(float)  # SH mode, image complete: the fraction of object pixels clamped at 0
+    table_shown = Signal(str)  # SH mode: the table drawn with (Auto: its pick and estimated error)
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
@@ -185,6 +186,7 @@ class ObjectView(_GLView):
         self._scene_b: tuple | None = None  # the scene _renderer_b was built for
         self._progressive_b = None
         self._stale = None  # the last complete-enough image, shown while a new one starts
+        self._table_note: str | None = None  # what table_shown last said
         self._timer = QTimer(self)
         self._timer.setInterval(0)
         self._timer.timeout.connect(self._refine)
@@ -299,16 +301,43 @@ class ObjectView(_GLView):
         from functools import partial
 
         from brdflab.lighting.prefilter import build_stack, map_key, remember_stack
-        from brdflab.lighting.sh_tables import brdf_table, remember_table
+        from brdflab.lighting.sh_table_auto import AutoTable, build_table
 
         r = self.renderer
         if self.settings.mode == "sh" and not r.sh_table_ready():
             source = r.source if r.source is not None else r.material
-            return (brdf_table, (source, r.sh_order), partial(remember_table, source, r.sh_order),
-                    f"building the order-{r.sh_order} SH table…")
+            what = "choosing and building" if isinstance(r.sh_table, AutoTable) else "building"
+            return (build_table, (source, r.sh_order, r.sh_table),
+                    partial(self._remember_table, source, r.sh_order, r.sh_table), f"{what} the order-{r.sh_order} SH table…")
         if self.settings.mode == "prefiltered" and r.environment is not None and not r.prefiltered_ready():
             return build_stack, (r.environment, map_key(r.environment)), remember_stack, "prefiltering the environment map…"
         return None
+
+    @staticmethod
+    def _remember_table(source, order: int, table, built) -> None:
+        """Keep what the worker's build_table returned: Auto's choice, and the table under its setting."""
+        from brdflab.lighting.sh_table_auto import remember_choice
+        from brdflab.lighting.sh_tables import remember_table
+
+        choice, setting, values = built
+        if choice is not None:
+            remember_choice(source, order, table, choice)
+        remember_table(source, order, values, setting)
+
+    def _show_table(self) -> None:
+        """Say which table the SH mode draws with, once per change."""
+        from brdflab.lighting.sh_table_auto import AutoTable, known_choice
+
+        r = self.renderer
+        source = r.source if r.source is not None else r.material
+        if isinstance(r.sh_table, AutoTable):
+            choice = known_choice(source, r.sh_order, r.sh_table)
+            note = "" if choice is None else choice.label
+        else:
+            note = r.sh_table.of(source).text
+        if note != self._table_note:
+            self._table_note = note
+            self.table_shown.emit(note)
 
     def _refine(self) -> None:
         """Render more samples, outside paint events (Qt's paint-time GL state is not
@@ -321,6 +350,8 @@ class ObjectView(_GLView):
         try:
             if self._prepared_elsewhere():
                 return
+            if self.settings.mode == "sh":
+                self._show_table()
             if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
                 self._release(self._progressive, self._progressive_b)
                 settings = RenderSettings(**{**self.settings.__dict__, "width": w, "height": h})

@@ -32,6 +32,7 @@ from brdflab.gui.charts import ChartsPanel
 from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
                                 MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
+from brdflab.gui.panels import sh_table_request
 from brdflab.models import get_model
 
 LAYOUT_VERSION = 4  # 2: the lobe viewer became the central view; 3: the Charts dock; 4: the Auto ladder dock
@@ -370,6 +371,7 @@ class MainWindow(QMainWindow):
             view.failed.connect(self.show_error)
         e.energy_known.connect(self._editable_energy_known)
         self.object_view.ringing.connect(self._sh_ringing)
+        self.object_view.table_shown.connect(self.object_controls.sh_table_note.setText)
         self.object_view.busy.connect(lambda text: self.statusBar().showMessage(text, 0 if text else 1))
         f = self.fitting
         f.fit_requested.connect(self.start_fit)
@@ -632,9 +634,11 @@ class MainWindow(QMainWindow):
         v.exposure = c.exposure.spin.value()
         v.gamma = c.gamma.value()
         order, shadows, variant = c.sh_order.value(), c.sh_shadows.isChecked(), c.sh_variant.currentText()
+        table = sh_table_request(c.sh_table.currentText())
 
         def apply_sh():
             v.renderer.set_sh_order(order)
+            v.renderer.set_sh_table(table)
             v.renderer.sh_shadows = shadows
             v.renderer.sh_variant = variant
 

@@ -350,6 +350,32 @@ class LobeControls(QWidget):
         settings.translucent_fit = self.translucent.isChecked()
 
 
+SH_TABLES = {"auto": "auto", "128² standard": "standard"}
+
+
+def sh_table_choice() -> tuple[QComboBox, QLabel]:
+    """The SH table's setting (Auto by default) and the label that shows what it built."""
+    from brdflab.lighting.sh_table_auto import DEFAULT_TOLERANCE
+
+    box = QComboBox()
+    box.addItems(list(SH_TABLES))
+    box.setToolTip(f"auto: the smallest table and fewest samples whose estimated error stays within "
+                   f"{DEFAULT_TOLERANCE:.0%} (relative RMS over views), chosen in the background; "
+                   "standard: 128² texels, 2^12 samples per elevation (2^8 per texel when anisotropic)")
+    note = QLabel("")
+    note.setStyleSheet("color: #707070")
+    note.setWordWrap(True)
+    return box, note
+
+
+def sh_table_request(text: str):
+    """The renderer's table request for the combo box's entry: AutoTable or the standard setting."""
+    from brdflab.lighting.sh_table_auto import AutoTable
+    from brdflab.lighting.sh_tables import STANDARD
+
+    return AutoTable() if SH_TABLES[text] == "auto" else STANDARD
+
+
 SHOWN = {"original": "off", "fitted": "off", "original | fit": "split", "difference": "difference"}
 
 
@@ -406,6 +432,7 @@ class ObjectControls(QWidget):
         self.sh_shadows = QCheckBox("SH self-shadowing")
         self.sh_variant = QComboBox()
         self.sh_variant.addItems(["dynamic", "fixed-light", "fixed-view"])
+        self.sh_table, self.sh_table_note = sh_table_choice()
         self.samples = QSpinBox(minimum=1, maximum=4096, value=256)
         self.exposure = ParameterRow(-8.0, 8.0, 0.0)
         self.gamma = QDoubleSpinBox(minimum=0.0, maximum=4.0, value=0.0, singleStep=0.1, specialValueText="sRGB")
@@ -429,6 +456,8 @@ class ObjectControls(QWidget):
         form.addRow("samples", self.samples)
         form.addRow("SH order", self.sh_order)
         form.addRow("SH variant", self.sh_variant)
+        form.addRow("SH table", self.sh_table)
+        form.addRow(self.sh_table_note)
         form.addRow("exposure (EV)", self.exposure)
         form.addRow("gamma", self.gamma)
         form.addRow("environment rotation (°)", self.rotation)
@@ -452,6 +481,7 @@ class ObjectControls(QWidget):
         self.gamma.valueChanged.connect(lambda _: self.changed.emit())
         self.sh_shadows.toggled.connect(lambda _: self.changed.emit())
         self.sh_variant.currentIndexChanged.connect(lambda _: self.changed.emit())
+        self.sh_table.currentIndexChanged.connect(lambda _: self.changed.emit())
         for row_ in (self.exposure, self.rotation, self.light_theta, self.light_phi):
             row_.edited.connect(lambda _: self.changed.emit())
 

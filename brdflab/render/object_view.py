@@ -25,6 +25,8 @@ from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material
 from brdflab.lighting.env_sampling import environment_distribution
 from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set, sample_set
+from brdflab.lighting.sh_table_auto import AutoTable, known_choice, resolve
+from brdflab.lighting.sh_tables import STANDARD, TableSetting
 
 MODES = ("point", "fis", "sh", "prefiltered", "mis")
 SAMPLED_MODES = ("fis", "mis")  # refined progressively, one sample set after another
@@ -77,9 +79,10 @@ class ObjectRenderer:
         self._transfer: dict = {}
         self.sh_order = 5
         self.sh_window: str | None = None
+        self.sh_table: TableSetting | AutoTable = STANDARD  # the BRDF table's size and samples, or Auto
         self.source = None
         self.environment: EnvironmentMap | None = None
-        self._sh_state: tuple | None = None  # (order, table texture, rx texture, half, light)
+        self._sh_state: tuple | None = None  # ((order, table setting), table texture, rx texture, half, light)
         self.clamped_pixels = 0
         self._prefiltered = PrefilteredLighting(ctx)
         self._empty_vao = ctx.vertex_array(self._program(("Lambertian",), "point", True), [])
@@ -88,7 +91,7 @@ class ObjectRenderer:
         """Take over another renderer's scene (its GL context is gone), rebuilt on this one's."""
         self.camera, self.model_rotation = old.camera, old.model_rotation
         self.sh_shadows, self.sh_variant = old.sh_shadows, old.sh_variant
-        self.sh_order, self.sh_window = old.sh_order, old.sh_window
+        self.sh_order, self.sh_window, self.sh_table = old.sh_order, old.sh_window, old.sh_table
         if old.mesh is not None:
             self.set_mesh(old.mesh)
         if old.environment is not None:
@@ -197,6 +200,22 @@ class ObjectRenderer:
             self.sh_order, self.sh_window = order, window
             self._release_sh()
 
+    def set_sh_table(self, table: TableSetting | AutoTable) -> None:
+        """How the BRDF table is built: a fixed setting, or Auto's pick within a tolerance."""
+        if table != self.sh_table:
+            self.sh_table = table
+            self._release_sh()
+
+    def _sh_source(self):
+        return self.source if self.source is not None else self.material
+
+    def sh_table_setting(self) -> TableSetting | None:
+        """The table setting the SH mode draws with; None while Auto has not chosen yet."""
+        if isinstance(self.sh_table, AutoTable):
+            choice = known_choice(self._sh_source(), self.sh_order, self.sh_table)
+            return None if choice is None else choice.setting
+        return self.sh_table
+
     def _sh_resources(self, settings: RenderSettings):
         """BRDF table, rotation matrices and lighting for the current order (built lazily)."""
         from brdflab.lighting import sh
@@ -205,10 +224,11 @@ class ObjectRenderer:
         if self.environment is None:
             raise BRDFLabError("no environment map for the spherical-harmonics mode")
         order = self.sh_order
-        if self._sh_state is None or self._sh_state[0] != order:
+        source = self._sh_source()
+        setting = resolve(source, order, self.sh_table)  # Auto chooses here unless a worker already did
+        if self._sh_state is None or self._sh_state[0] != (order, setting):
             self._release_sh()
-            source = self.source if self.source is not None else self.material
-            table = cached_table(source, order)
+            table = cached_table(source, order, setting)
             size = table.shape[0]
             flat = table[..., :3].reshape(size, size, -1) if table.shape[-1] >= 3 else np.repeat(table, 3, -1).reshape(size, size, -1)
             layers = (flat.shape[-1] + 3) // 4
@@ -228,14 +248,16 @@ class ObjectRenderer:
             rx = self.ctx.texture((len(rx_data), 1), 1, rx_data.tobytes(), dtype="f4")
             rx.filter = (moderngl.NEAREST, moderngl.NEAREST)
             light = sh.project_environment(self.environment, order, self.sh_window)
-            self._sh_state = (order, tex, rx, len(blocks[0]), light)
+            self._sh_state = ((order, setting), tex, rx, len(blocks[0]), light)
         return self._sh_state
 
     def sh_table_ready(self) -> bool:
         """Whether the SH mode can draw without building a table first."""
         from brdflab.lighting.sh_tables import is_cached
 
-        return self._sh_state is not None or is_cached(self.source if self.source is not None else self.material, self.sh_order)
+        setting = self.sh_table_setting()
+        return setting is not None and (self._sh_state is not None and self._sh_state[0] == (self.sh_order, setting)
+                                         or is_cached(self._sh_source(), self.sh_order, setting))
 
     def prefiltered_ready(self) -> bool:
         """Whether the prefiltered mode can draw without building the map's stack first."""
@@ -289,9 +311,10 @@ class ObjectRenderer:
                 if self.sh_variant == "fixed-light":
                     data = sh.rotate_many(np.asarray(world), R)
                 else:  # the view's BRDF vectors turned to world, kept while the view stays
-                    view = (self.camera.position.tobytes(), self.model_rotation.tobytes())
+                    setting = resolve(self._sh_source(), self.sh_order, self.sh_table)
+                    view = (self.camera.position.tobytes(), self.model_rotation.tobytes(), setting)
                     if entry.get("view") != view:
-                        table = cached_table(self.source if self.source is not None else self.material, self.sh_order)
+                        table = cached_table(self._sh_source(), self.sh_order, setting)
                         c_local = lookup(table, np.einsum("vij,vj->vi", R, wo))[..., :3]
                         entry["c_world"], entry["view"] = sh.rotate_many(c_local, np.transpose(R, (0, 2, 1))), view
                     data = np.einsum("vic,vic->vc", entry["c_world"], world)[:, None, :]
