@@ -33,9 +33,10 @@ from PySide6.QtWidgets import (
 
 from brdflab.gui.auto_lighting import details, summary
 from brdflab.gui.background import LatestOnly
-from brdflab.lighting.auto import DEFAULT_TOLERANCE
+from brdflab.lighting.auto import DEFAULT_TOLERANCE as LIGHTING_TOLERANCE
 from brdflab.material.albedo import energy_check
-from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE
+from brdflab.fitting.auto import DEFAULT_SPLIT
+from brdflab.fitting.auto import DEFAULT_TOLERANCE as FIT_TOLERANCE
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
 from brdflab.fitting.lm import METRICS
 from brdflab.material.analytic import AnalyticMaterial
@@ -418,7 +419,7 @@ class ObjectControls(QWidget):
         self.mode.setItemData(self.mode.findText("auto"), "the cheapest of prefiltered, SH and FIS / MIS predicted to "
                               "stay within the tolerance for this material and map (chosen in the background)",
                               Qt.ToolTipRole)
-        self.tolerance = QDoubleSpinBox(minimum=0.01, maximum=50.0, value=100 * DEFAULT_TOLERANCE, decimals=2,
+        self.tolerance = QDoubleSpinBox(minimum=0.01, maximum=50.0, value=100 * LIGHTING_TOLERANCE, decimals=2,
                                         singleStep=0.5, suffix=" %", enabled=False)
         self.tolerance.setKeyboardTracking(False)
         self.tolerance.setToolTip("auto: the relative RMSE (reference view) the chosen lighting is predicted to stay within")
@@ -574,7 +575,7 @@ class FittingPanel(QWidget):
         self.auto_button = QPushButton("Auto")
         self.auto_button.setToolTip("Climb from the Lambertian to three lobes, fitting half of a split of the "
                                     "samples and scoring the other half; stop when more lobes no longer pay")
-        self.tolerance = QDoubleSpinBox(decimals=1, minimum=0.0, maximum=99.9, value=100 * DEFAULT_TOLERANCE,
+        self.tolerance = QDoubleSpinBox(decimals=1, minimum=0.0, maximum=99.9, value=100 * FIT_TOLERANCE,
                                         singleStep=0.5, suffix=" %")
         self.tolerance.setToolTip("Auto: a rung of lobes must improve the held-back error by more than this "
                                   "(relative) to be climbed")
