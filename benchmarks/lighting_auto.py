@@ -9,7 +9,8 @@ Lambertian) under its three real maps and the shared forest map, with the map ar
 study does: `choose_lighting` picks a setting from the pilot alone; then every candidate is
 rendered (reference view, 48²) and scored against the texel quadrature (`environment_image`;
 where its own floor exceeds a quarter of the tolerance, the lobe is narrower than the
-texels and `refined_environment_image` subdivides the texels near each mirror direction),
+texels and `refined_environment_image` subdivides the texels near each mirror direction:
+`study.lighting.quadrature_reference`),
 and timed (one 64² frame per material and setting, the study's `frame_ms`). Reported per
 pair: the choice, its predicted and measured error, whether it met the tolerance, the
 cheapest setting that actually met it (by measured frame time) and the cost ratio; overall:
@@ -32,25 +33,16 @@ from brdflab.io.atomic import atomic_write
 from brdflab.io.resources import shared_data_dir
 from brdflab.lighting.envmap import load_environment
 from brdflab.lighting.auto import DEFAULT_TOLERANCE, choose_lighting
-from brdflab.lighting.reference_view import environment_image, refined_environment_image, relative_rmse, sphere_view
+from brdflab.lighting.reference_view import relative_rmse, sphere_view
 from brdflab.render.context import create_context
 from brdflab.render.object_view import ObjectRenderer, RenderSettings
 from brdflab.sources.proxy import proxy_lobes
-from brdflab.study.lighting import (MEASURED_CLASS, build_sh_table, frame_ms, material_classes, reduced,
-                                    reference_floor, refined_floor, study_maps)
+from brdflab.study.lighting import (MEASURED_CLASS, build_sh_table, frame_ms, material_classes,
+                                    quadrature_reference, reduced, study_maps)
 
 EXTRA_MAP = "envmaps/forest.exr"  # a fourth map (shared data): 8 materials × 4 maps = 32 pairs
 SIZE = 48  # error images
 FRAME = 64  # timed frames (what matters is their ratio)
-
-
-def reference(source, small, tolerance: float) -> tuple[np.ndarray, float, str]:
-    """The reference image, its floor and its kind: texel centres where they resolve a
-    quarter of the tolerance, else the texels near the mirror direction subdivided."""
-    floor = reference_floor(source, small)
-    if floor <= tolerance / 4:
-        return environment_image(source, small, SIZE, SIZE), floor, "texel centres"
-    return refined_environment_image(source, small, SIZE, SIZE), refined_floor(source, small), "subdivided"
 
 
 def measure_material(renderer, source, maps, candidates, references) -> tuple[dict, dict]:
@@ -94,7 +86,7 @@ def run(tolerance: float, quick: bool, json_path: Path) -> dict:
             t0 = time.perf_counter()
             choices[name] = (choose_lighting(source, small, tolerance, proxy), time.perf_counter() - t0)
         candidates = next(iter(choices.values()))[0].candidates  # the same settings for every map
-        references = {name: reference(source, small, tolerance) for name, small in maps.items()}
+        references = {name: quadrature_reference(source, small, SIZE, tolerance / 4) for name, small in maps.items()}
         ms, errors = measure_material(renderer, source, maps, candidates, references)
         for name, small in maps.items():
             choice, seconds = choices[name]

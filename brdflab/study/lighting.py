@@ -2,8 +2,9 @@
 mode the object view has, per material class, on real environment maps.
 
 Error: relative RMSE of the reference-view sphere against NumPy quadrature over the map's
-texels (`reference_view.environment_image`), the map area-averaged to 128 × 64 for both
-the render and the reference. Frame time: one frame of the reference view with the full
+texels (`reference_view.environment_image`; for a lobe narrower than the texels, with the
+texels near each mirror direction subdivided: `quadrature_reference`), the map
+area-averaged to 128 × 64 for both the render and the reference. Frame time: one frame of the reference view with the full
 map, on whatever OpenGL this machine has, once per material and setting (the map's content
 does not change the work per pixel; SH frames read only order² lighting coefficients). The
 reference's own resolution is measured too (`reference_floor`): targets within it are not
@@ -182,6 +183,18 @@ def refined_floor(source, small: EnvironmentMap) -> float:
     return relative_rmse(fine, other, sphere_view(FLOOR_SIZE, FLOOR_SIZE).inside)
 
 
+def quadrature_reference(source, small: EnvironmentMap, size: int, resolve: float) -> tuple[np.ndarray, float, str]:
+    """The reference image (size²), its floor and its kind: texel centres where their floor
+    is within `resolve`, else `refined_environment_image` (the texels near each mirror
+    direction subdivided: the lobe is narrower than the texels)."""
+    from brdflab.lighting.reference_view import environment_image, refined_environment_image
+
+    floor = reference_floor(source, small)
+    if floor <= resolve:
+        return environment_image(source, small, size, size), floor, "texel centres"
+    return refined_environment_image(source, small, size, size), refined_floor(source, small), "subdivided"
+
+
 def frame_ms(renderer, settings) -> float:
     """Milliseconds per frame: a tiny frame first (compiles the program, builds the mode's
     resources), then one frame; a short one is timed again and the best kept."""
@@ -217,7 +230,7 @@ class Scene:
 
 
 def measure(context: StudyContext) -> dict:
-    from brdflab.lighting.reference_view import environment_image, sphere_view
+    from brdflab.lighting.reference_view import sphere_view
     from brdflab.render.context import create_context
     from brdflab.render.object_view import ObjectRenderer
 
@@ -250,8 +263,9 @@ def measure(context: StudyContext) -> dict:
             if context.cancelled():
                 return finish(numbers)
             context.progress(f"lighting: {material} on {name}: quadrature reference ({scene.error_size}²)")
-            references[name] = environment_image(source, small[name], scene.error_size, scene.error_size)
-            numbers["floors"].append({"material": material, "map": name, "floor": reference_floor(source, small[name])})
+            references[name], floor, kind = quadrature_reference(source, small[name], scene.error_size,
+                                                                 min(THRESHOLDS) / 4)
+            numbers["floors"].append({"material": material, "map": name, "floor": floor, "reference": kind})
         for mode, settings in modes.items():
             for setting in settings:
                 if context.cancelled():
