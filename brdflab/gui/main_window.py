@@ -963,16 +963,23 @@ class MainWindow(QMainWindow):
         self._candidate = None
         self._thread = None
 
-    def _fit_finished(self, result: FitResult) -> None:
+    def _store_in_owner(self, fitting, what: str) -> Workspace | None:
+        """End the running fit or Auto run and store its fitting, undoably, in the document it
+        started on; None (nothing stored) when that document was closed meanwhile."""
         owner, self._fit_owner = self._fit_owner, None
         self._end_fit()
         if owner is not self.workspace:  # its document was closed: never store it in another
-            self.statusBar().showMessage("the running fit was stopped: its document was closed", 10000)
-            self.fitting.status.setText("fit stopped (its document was closed)")
-            return
+            self.statusBar().showMessage(f"the running {what.lower()} was stopped: its document was closed", 10000)
+            self.fitting.status.setText(f"{what} stopped (its document was closed)")
+            return None
         old = (tuple(self.workspace.document.fittings), self.workspace.shown_fit)
-        new_list = list(old[0]) + [fitting_of(result)]
-        self.undo_stack.push(ReplaceFittings(self, old, (tuple(new_list), len(new_list) - 1), "Fit"))
+        new_list = list(old[0]) + [fitting]
+        self.undo_stack.push(ReplaceFittings(self, old, (tuple(new_list), len(new_list) - 1), what))
+        return owner
+
+    def _fit_finished(self, result: FitResult) -> None:
+        if self._store_in_owner(fitting_of(result), "Fit") is None:
+            return
         self.fitting.status.setText(f"{result.metric} error {result.error:.6g} after {result.iterations} iterations, "
                                     f"{result.seconds:.2f} s ({result.status})")
 
@@ -1019,15 +1026,9 @@ class MainWindow(QMainWindow):
                                     f"(best so far {p.best_error:.4g})")
 
     def _auto_finished(self, ladder: Ladder) -> None:
-        owner, self._fit_owner = self._fit_owner, None
-        self._end_fit()
-        if owner is not self.workspace:  # its document was closed: never store it in another
-            self.statusBar().showMessage("the running Auto fit was stopped: its document was closed", 10000)
-            self.fitting.status.setText("Auto stopped (its document was closed)")
+        owner = self._store_in_owner(chosen_fitting(ladder), "Auto fit")
+        if owner is None:
             return
-        old = (tuple(self.workspace.document.fittings), self.workspace.shown_fit)
-        new_list = list(old[0]) + [chosen_fitting(ladder)]
-        self.undo_stack.push(ReplaceFittings(self, old, (tuple(new_list), len(new_list) - 1), "Auto fit"))
         self._auto_ladder = (owner, ladder)
         self._show_own_ladder()
         self.show_ladder()
