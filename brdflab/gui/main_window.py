@@ -911,12 +911,19 @@ class MainWindow(QMainWindow):
         box.open()  # not modal-blocking: the program keeps running
 
     # --- fitting -------------------------------------------------------------------------------
-    def start_fit(self, lobes: list, combination: str, metric: str, kind: str, size: int, start=None) -> None:
+    def _source_to_fit(self):
+        """The source a new fit or Auto run would fit; None (and said) when one is running
+        or the measured data is missing."""
         if self._thread is not None:
-            return
+            return None
         source = self.workspace.original()
         if source is None:
             self.show_error("nothing to fit: the measured data of this material is missing")
+        return source
+
+    def start_fit(self, lobes: list, combination: str, metric: str, kind: str, size: int, start=None) -> None:
+        source = self._source_to_fit()
+        if source is None:
             return
         try:
             guess = self.workspace.guess
@@ -993,11 +1000,8 @@ class MainWindow(QMainWindow):
     def start_auto(self, settings: dict) -> None:
         """Auto (fitting/auto.py) on the source's samples, in a worker process like a fit; the
         pick is stored as a new fitting of the document it started on, the ladder shown."""
-        if self._thread is not None:
-            return
-        source = self.workspace.original()
+        source = self._source_to_fit()
         if source is None:
-            self.show_error("nothing to fit: the measured data of this material is missing")
             return
         try:
             for name in settings["models"] or []:
