@@ -583,7 +583,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "off when continuing an --init fit)")
     p.add_argument("--max-iterations", type=int_in(1, 1_000_000), default=200, help="Levenberg–Marquardt iterations")
     p.add_argument("--time-limit", type=float, default=float("inf"),
-                   help="seconds (> 0); the fit stops within one sample chunk and keeps the best so far")
+                   help="seconds (> 0); the fit stops within one sample chunk and keeps the best so far "
+                        "(with --auto: a limit for each candidate's fit, screens included)")
     p.add_argument("--out", help="write the source's XML with the new <Fitting> here")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_fit)
