@@ -53,3 +53,22 @@ def test_sh_table_of_sharp_measured_matches_quadrature(name):
 def test_proxy_lobes_are_not_sharper_than_the_floor():
     proxy = proxy_lobes(read_slice(DATA / "merl_slices" / "chrome-steel.slice"))
     assert all(lobe.params["m"] >= MIN_ROUGHNESS for lobe in proxy.lobes if "m" in lobe.params)
+
+
+def test_a_source_is_fitted_its_proxy_once_while_it_lives(monkeypatch):
+    """The window sets its source again on every view-control change: the proxy fit (~0.7 s)
+    must not run again for the same source object; another object (a reopened file) is fitted
+    anew, and a caller's edits to the proxy it got do not reach the next caller."""
+    from brdflab.fitting import lm
+    from brdflab.sources import proxy
+
+    calls = []
+    real_fit = lm.fit
+    monkeypatch.setattr(lm, "fit", lambda *a, **k: calls.append(1) or real_fit(*a, **k))
+    source = read_slice(DATA / "merl_slices" / "blue-fabric.slice")
+    first = proxy_lobes(source)
+    first.lobes[1].params["m"] = 0.9
+    again = proxy_lobes(source)
+    assert len(calls) == 1 and again.lobes[1].params["m"] != 0.9
+    proxy_lobes(read_slice(DATA / "merl_slices" / "blue-fabric.slice"))
+    assert len(calls) == 2

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import weakref
+
 from brdflab.material.analytic import AnalyticMaterial
 
 # Cook–Torrance m floor of the proxy: lobes fitted to a mirror-like table come out far
@@ -10,16 +12,31 @@ from brdflab.material.analytic import AnalyticMaterial
 MIN_ROUGHNESS = 0.05
 
 
+# one proxy per measured source object while it lives: the window sets its source again on
+# every view-control change, and a refit each time cost ~0.7 s on the GUI thread
+# (by id: sources are unhashable dataclasses; an entry goes when its source does)
+_PROXIES: dict[int, AnalyticMaterial] = {}
+
+
 def proxy_lobes(source) -> AnalyticMaterial:
     """A Lambertian + two Cook–Torrance fit (Ngan metric, a stratified subset): the
     distribution that importance-samples a measured source (a sharp and a broad lobe,
-    so that glossy tails get samples too). Analytic materials are their own proxy."""
+    so that glossy tails get samples too). Analytic materials are their own proxy;
+    a measured source's proxy is fitted once per source object (a copy is returned)."""
+    if isinstance(source, AnalyticMaterial):
+        return source
+    key = id(source)
+    if key not in _PROXIES:
+        _PROXIES[key] = _fit_proxy(source)
+        weakref.finalize(source, _PROXIES.pop, key, None)
+    return _PROXIES[key].copy()
+
+
+def _fit_proxy(source) -> AnalyticMaterial:
     from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
     from brdflab.sources.measured import MeasuredTable, tabulate
     from brdflab.fitting.samples import samples_of
 
-    if isinstance(source, AnalyticMaterial):
-        return source
     table = source if isinstance(source, MeasuredTable) else tabulate(source, phi_d_samples=1)
     start = material_from_lobes(["Lambertian", "CookTorrance", "CookTorrance"], "Linear", table.n_channels)
     start.lobes[1].params["m"], start.lobes[2].params["m"] = 0.05, 0.35
