@@ -183,14 +183,16 @@ def refined_floor(source, small: EnvironmentMap) -> float:
     return relative_rmse(fine, other, sphere_view(FLOOR_SIZE, FLOOR_SIZE).inside)
 
 
-def quadrature_reference(source, small: EnvironmentMap, size: int, resolve: float) -> tuple[np.ndarray, float, str]:
-    """The reference image (size²), its floor and its kind: texel centres where their floor
-    is within `resolve`, else `refined_environment_image` (the texels near each mirror
-    direction subdivided: the lobe is narrower than the texels)."""
+def quadrature_reference(source, small: EnvironmentMap, size: int,
+                         resolve: float | None = None) -> tuple[np.ndarray, float, str]:
+    """The reference image (size²), its floor and its kind: `refined_environment_image`
+    (the texels near each mirror direction subdivided), or, given `resolve`, texel centres
+    where their own floor is within it. The study always subdivides: the texel-centre floor,
+    probed at 16², said 0.11 % for Cook–Torrance m = 0.2 under the sunset where the two
+    references differ by 1.0 % at 48²."""
     from brdflab.lighting.reference_view import environment_image, refined_environment_image
 
-    floor = reference_floor(source, small)
-    if floor <= resolve:
+    if resolve is not None and (floor := reference_floor(source, small)) <= resolve:
         return environment_image(source, small, size, size), floor, "texel centres"
     return refined_environment_image(source, small, size, size), refined_floor(source, small), "subdivided"
 
@@ -263,8 +265,7 @@ def measure(context: StudyContext) -> dict:
             if context.cancelled():
                 return finish(numbers)
             context.progress(f"lighting: {material} on {name}: quadrature reference ({scene.error_size}²)")
-            references[name], floor, kind = quadrature_reference(source, small[name], scene.error_size,
-                                                                 min(THRESHOLDS) / 4)
+            references[name], floor, kind = quadrature_reference(source, small[name], scene.error_size)
             numbers["floors"].append({"material": material, "map": name, "floor": floor, "reference": kind})
         for mode, settings in modes.items():
             for setting in settings:
