@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -936,17 +937,24 @@ class MainWindow(QMainWindow):
             self.show_error(str(e))
             return
         options = FitOptions(metric=metric)
+        # the samples are drawn and the fit runs in a worker process: the window stays live
+        self._start_worker(FitProcess(start, source, {"kind": kind, "size": size, "density": 45}, options, self),
+                           lambda n: f"fitting {n} samples…", self._fit_progress, self._fit_finished,
+                           "starting the fit…")
+
+    def _start_worker(self, thread, started: Callable[[int], str], progress: Callable, finished: Callable,
+                      starting: str) -> None:
+        """Run a fit or an Auto run's worker for the document open now, the panel showing it."""
         self._fit_owner = self.workspace
         self._fit_history = []
-        # the samples are drawn and the fit runs in a worker process: the window stays live
-        self._thread = FitProcess(start, source, {"kind": kind, "size": size, "density": 45}, options, self)
-        self._thread.started.connect(lambda n: self.fitting.status.setText(f"fitting {n} samples…"))
-        self._thread.progress.connect(self._fit_progress)
-        self._thread.finished.connect(self._fit_finished)
-        self._thread.failed.connect(self._fit_failed)
-        self._thread.start()
+        self._thread = thread
+        thread.started.connect(lambda n: self.fitting.status.setText(started(n)))
+        thread.progress.connect(progress)
+        thread.finished.connect(finished)
+        thread.failed.connect(self._fit_failed)
+        thread.start()
         self.fitting.set_running(True)
-        self.fitting.status.setText("starting the fit…")
+        self.fitting.status.setText(starting)
 
     def stop_fit(self) -> None:
         if self._thread is not None:
@@ -1009,17 +1017,9 @@ class MainWindow(QMainWindow):
         except BRDFLabError as e:
             self.show_error(f"Auto models: {e}")
             return
-        self._fit_owner = self.workspace
-        self._fit_history = []
-        self._thread = AutoFitProcess(source, settings, self)
-        self._thread.started.connect(lambda n: self.fitting.status.setText(
-            f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…"))
-        self._thread.progress.connect(self._auto_progress)
-        self._thread.finished.connect(self._auto_finished)
-        self._thread.failed.connect(self._fit_failed)
-        self._thread.start()
-        self.fitting.set_running(True)
-        self.fitting.status.setText("starting Auto…")
+        self._start_worker(AutoFitProcess(source, settings, self),
+                           lambda n: f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…",
+                           self._auto_progress, self._auto_finished, "starting Auto…")
 
     def _auto_progress(self, p: AutoProgress) -> None:
         bar = self.fitting.progress
