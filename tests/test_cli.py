@@ -129,3 +129,14 @@ def test_gui_without_a_display_says_what_to_do():
     proc = subprocess.run([sys.executable, "-m", "brdflab"], capture_output=True, text=True, env=env, timeout=60)
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "xvfb-run" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_output_piped_into_a_reader_that_leaves_ends_quietly(tmp_path):
+    """`brdflab models | head -1`: the reader leaves before the command writes; the command
+    must end without a traceback (exit 141, as a writer killed by SIGPIPE). The read end is
+    closed before the child has started Python, so its first write meets a closed pipe."""
+    proc = subprocess.Popen([sys.executable, "-m", "brdflab", "models"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=tmp_path)
+    proc.stdout.close()
+    stderr = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 141 and "Traceback" not in stderr and "BrokenPipe" not in stderr, stderr
