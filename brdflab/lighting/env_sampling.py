@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.lighting.envmap import EnvironmentMap, texel_of
+from brdflab.lighting.envmap import EnvironmentMap, band_solid_angle, texel_of
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -74,8 +74,7 @@ def _invert(cdf: np.ndarray, u: np.ndarray, lowest: np.ndarray | float = 0.0) ->
 
 def row_solid_angles(height: int, width: int) -> np.ndarray:
     """Exact solid angle of one texel in each row (H,) of a lat-long map."""
-    edges = np.cos(np.pi * np.arange(height + 1) / height)
-    return (2.0 * np.pi / width) * (edges[:-1] - edges[1:])
+    return band_solid_angle(np.arange(height) / height, (np.arange(height) + 1) / height, width)
 
 
 def environment_distribution(env: EnvironmentMap) -> EnvironmentDistribution:

@@ -39,14 +39,8 @@ class EnvironmentMap:
     def texel_directions(self) -> tuple[np.ndarray, np.ndarray]:
         """World direction of each texel centre (H, W, 3) and its solid angle (H, 1)."""
         h, w = self.height, self.width
-        v = (np.arange(h) + 0.5) / h
-        u = (np.arange(w) + 0.5) / w
-        theta = v * np.pi
-        phi = (u - 0.5) * 2.0 * np.pi
-        st = np.sin(theta)[:, None]
-        d = np.stack(np.broadcast_arrays(st * np.sin(phi)[None, :], np.cos(theta)[:, None], -st * np.cos(phi)[None, :]), axis=-1)
-        solid = (2.0 * np.pi / w) * (np.cos(np.pi * np.arange(h) / h) - np.cos(np.pi * (np.arange(h) + 1) / h))
-        return d, solid[:, None]
+        d = uv_to_direction(((np.arange(w) + 0.5) / w)[None, :], ((np.arange(h) + 0.5) / h)[:, None])
+        return d, band_solid_angle(np.arange(h) / h, (np.arange(h) + 1) / h, w)[:, None]
 
     def downsampled(self, width: int, height: int) -> "EnvironmentMap":
         """Area-average to width × height (each output texel averages the input texels it
@@ -70,6 +64,19 @@ class EnvironmentMap:
         """The map turned about +Y (texel columns rolled; exact for multiples of a texel)."""
         shift = int(round(yaw_degrees / 360.0 * self.width))
         return EnvironmentMap(np.roll(self.data, shift, axis=1), self.name, self.path)
+
+
+def uv_to_direction(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """World directions (..., 3) of lat-long coordinates u, v (broadcast together): the
+    inverse of `direction_to_uv`."""
+    theta, phi = v * np.pi, (u - 0.5) * 2.0 * np.pi
+    st = np.sin(theta)
+    return np.stack(np.broadcast_arrays(st * np.sin(phi), np.cos(theta), -st * np.cos(phi)), axis=-1)
+
+
+def band_solid_angle(v_top: np.ndarray, v_bottom: np.ndarray, columns: int) -> np.ndarray:
+    """Exact solid angle of one of `columns` equal cells of the lat-long band between v_top and v_bottom."""
+    return (2.0 * np.pi / columns) * (np.cos(np.pi * v_top) - np.cos(np.pi * v_bottom))
 
 
 def direction_to_uv(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

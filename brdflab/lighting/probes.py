@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.lighting.envmap import uv_to_direction
 
 LAYOUTS = ("auto", "latlong", "angular", "dual-paraboloid")
 SUPERSAMPLE = 3
@@ -68,9 +69,7 @@ def _latlong_directions(height: int) -> np.ndarray:
     width, s = 2 * height, SUPERSAMPLE
     v = (np.arange(height * s) + 0.5) / (height * s)
     u = (np.arange(width * s) + 0.5) / (width * s)
-    theta, phi = v[:, None] * np.pi, (u[None, :] - 0.5) * 2.0 * np.pi
-    st = np.sin(theta)
-    return np.stack(np.broadcast_arrays(st * np.sin(phi), np.cos(theta), -st * np.cos(phi)), axis=-1)
+    return uv_to_direction(u[None, :], v[:, None])
 
 
 def _disk_lookup(disk: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:

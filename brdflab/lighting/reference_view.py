@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from brdflab.lighting.envmap import EnvironmentMap
+from brdflab.lighting.envmap import EnvironmentMap, band_solid_angle, uv_to_direction
 
 
 @dataclass
@@ -67,11 +67,20 @@ def environment_image(source, env: EnvironmentMap, width: int, height: int, chun
     for s in range(0, len(pix), chunk):
         rows, cols = pix[s:s + chunk, 0], pix[s:s + chunk, 1]
         n, t, b = view.normal[rows, cols], view.tangent[rows, cols], view.bitangent[rows, cols]
-        wi = np.stack([d @ t.T, d @ b.T, d @ n.T], axis=-1)  # (texels, pixels, 3)
-        wo = np.broadcast_to(wo_all[rows, cols][None], wi.shape)
-        f = _rgb(source.evaluate(wi.reshape(-1, 3), wo.reshape(-1, 3)), wi.shape[:2])
-        out[rows, cols] = np.einsum("tpc,tp,tc->pc", f, np.maximum(wi[..., 2], 0.0), weight)
+        out[rows, cols] = _by_texel_centres(source, d, weight, (t, b, n), wo_all[rows, cols])
     return out
+
+
+def _by_texel_centres(source, d: np.ndarray, weight: np.ndarray, frame: tuple, wo: np.ndarray,
+                      keep: np.ndarray | None = None) -> np.ndarray:
+    """Σ over texels of f(ωt, wo) max(0, n·ωt) · radiance·solid angle, per pixel (pixels, 3):
+    texel directions d (texels, 3), weight (texels, 3), the pixels' frames (t, b, n) and views
+    wo (pixels, 3); `keep` (texels, pixels) leaves texels out."""
+    t, b, n = frame
+    wi = np.stack([d @ t.T, d @ b.T, d @ n.T], axis=-1)  # (texels, pixels, 3)
+    f = _rgb(source.evaluate(wi.reshape(-1, 3), np.broadcast_to(wo[None], wi.shape).reshape(-1, 3)), wi.shape[:2])
+    cos = np.maximum(wi[..., 2], 0.0)
+    return np.einsum("tpc,tp,tc->pc", f, cos if keep is None else cos * keep, weight)
 
 
 CAP_DEGREES = 12.0  # texels reaching this close to a pixel's mirror direction are subdivided
@@ -104,20 +113,14 @@ def refined_environment_image(source, env: EnvironmentMap, width: int, height: i
         wo = np.stack([t @ z, b @ z, n @ z], axis=-1)  # (pixels, 3), local
         mirror = 2.0 * (n @ z)[:, None] * n - z  # world
         near = (d @ mirror.T) >= cos_near  # (texels, pixels)
-        # every texel by its centre, the near ones left out
-        wi = np.stack([d @ t.T, d @ b.T, d @ n.T], axis=-1)  # (texels, pixels, 3)
-        f = _rgb(source.evaluate(wi.reshape(-1, 3), np.broadcast_to(wo[None], wi.shape).reshape(-1, 3)), wi.shape[:2])
-        total = np.einsum("tpc,tp,tc->pc", f, np.maximum(wi[..., 2], 0.0) * ~near, weight)
+        total = _by_texel_centres(source, d, weight, (t, b, n), wo, ~near)  # the near ones left out
         # the near texels, part by part: (pairs, k, k) sub-texel directions and solid angles
         texel, pixel = np.nonzero(near)
         row, col = np.divmod(texel, w)
         v_edges = (row[:, None] + np.arange(k + 1) / k) / h  # (pairs, k + 1)
-        theta = (row[:, None] + offsets) / h * np.pi
-        phi = ((col[:, None] + offsets) / w - 0.5) * 2.0 * np.pi
-        part_solid = (2.0 * np.pi / (w * k)) * (np.cos(np.pi * v_edges[:, :-1]) - np.cos(np.pi * v_edges[:, 1:]))
-        st = np.sin(theta)[:, :, None]
-        world = np.stack(np.broadcast_arrays(st * np.sin(phi)[:, None, :], np.cos(theta)[:, :, None],
-                                             -st * np.cos(phi)[:, None, :]), axis=-1)  # (pairs, k, k, 3)
+        part_solid = band_solid_angle(v_edges[:, :-1], v_edges[:, 1:], w * k)  # (pairs, k): per row of parts
+        world = uv_to_direction(((col[:, None] + offsets) / w)[:, None, :],
+                                ((row[:, None] + offsets) / h)[:, :, None])  # (pairs, k, k, 3)
         tp, bp, np_ = t[pixel][:, None, None], b[pixel][:, None, None], n[pixel][:, None, None]
         wi = np.stack([(world * tp).sum(-1), (world * bp).sum(-1), (world * np_).sum(-1)], axis=-1)
         f = _rgb(source.evaluate(wi.reshape(-1, 3), np.broadcast_to(wo[pixel][:, None, None], wi.shape).reshape(-1, 3)),
