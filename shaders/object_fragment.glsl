@@ -37,9 +37,17 @@ vec2 env_uv(vec3 d) { return env_uv(d, u_env_rotation); }
 // (Ωp the texel's solid angle, ∝ sin θ) made a box twice the sample spacing, taller still
 // near the poles; a box that wide gathers light from beyond the local horizon, and
 // biased FIS at low counts (docs/mis.md).
+// Below one level the finest level is read texel by texel, blended towards level 1: a
+// sample narrower than a texel sees the map constant per texel, as the quadrature reference
+// and MIS do (a bilinear lookup there integrates another map: a sub-texel lobe under a
+// one-texel sun was off by 10 % at any sample count).
 vec3 filtered_env(vec3 d, float omega_s) {
-    float lod = log2(sqrt(omega_s) * u_env_size.y / PI);
-    return textureLod(u_env, env_uv(d), clamp(lod, 0.0, u_env_max_lod)).rgb;
+    float lod = clamp(log2(sqrt(omega_s) * u_env_size.y / PI), 0.0, u_env_max_lod);
+    vec2 uv = env_uv(d);
+    if (lod >= 1.0) return textureLod(u_env, uv, lod).rgb;
+    ivec2 size = textureSize(u_env, 0);
+    vec3 texel = texelFetch(u_env, clamp(ivec2(floor(uv * vec2(size))), ivec2(0), size - 1), 0).rgb;
+    return u_env_max_lod >= 1.0 ? mix(texel, textureLod(u_env, uv, 1.0).rgb, lod) : texel;
 }
 
 void main() {

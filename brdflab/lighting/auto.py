@@ -4,16 +4,20 @@ The candidates are prefiltered, SH at orders 2–12, FIS and MIS at 4–1024 sam
 settings the lighting study sweeps), ordered by a frame-cost model. Each gets a predicted
 relative RMSE in the reference view from the pilot (`auto_pilot`): quantities computed
 before rendering from the material and the map alone — the lobes' sharpness, the map's
-energy beyond SH order L and its brightest texels, the sampled modes' one-sample variance.
-The first candidate whose prediction is within the tolerance is chosen; if none is, the
+energy beyond SH order L and its brightest texels, MIS's one-sample variance, and for FIS
+its own estimator run at a few hundred pixels (`auto_fis`). The first candidate whose prediction is within the tolerance is chosen; if none is, the
 one predicted best. Nothing is rendered and no reference image is made.
 
-The sampled modes' predictions are the Monte Carlo √(Var/N) law times a factor per mode
-(`SAMPLED_FACTOR`) and (N/4)^-STRATIFICATION: the renderer's stratified sets and
-mip-filtered lookups converge faster than independent samples. The factors and the exponent
-were calibrated once, by hand, on the shipped venice map with a Lambertian and Blinn–Phong
-n = 100 (measured against the quadrature at 4–1024 samples); the benchmark's other 30 pairs
-were not used (venice is also one of its maps). SH adds its tables' own error (`SH_TABLE_ERROR`), a floor.
+MIS's prediction is the Monte Carlo √(Var/N) law times a factor (`MIS_FACTOR`) and
+(N/4)^-STRATIFICATION: the renderer's stratified sets converge faster than independent
+samples. The factor and the exponent were calibrated once, by hand, on the shipped venice map
+with a Lambertian and Blinn–Phong n = 100 (measured against the quadrature at 4–1024
+samples); the benchmark's other 30 pairs were not used (venice is also one of its maps).
+FIS has no factor: its prediction is the error of the renderer's own estimator (its sample
+set, sampler and filtered lookups, reproduced to 1e-5) against a converged estimate at
+FIS_PILOT_GRID² pixels; the law above missed what a lobe narrower than the pilot map's texels
+gathers from a small sun (7× too low). Its pixel count was chosen on three maps the benchmark
+does not use (memorial, studio, sunset). SH adds its tables' own error (`SH_TABLE_ERROR`), a floor.
 """
 
 from __future__ import annotations
@@ -23,14 +27,15 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.lighting.auto_fis import FIS_PILOT_GRID
 from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
 from brdflab.lighting.envmap import EnvironmentMap
 
 DEFAULT_TOLERANCE = 0.02
 SH_ORDERS = (2, 3, 4, 6, 8)
 SAMPLE_COUNTS = (4, 16, 64, 256, 1024)
-SAMPLED_FACTOR = {"fis": 0.5, "mis": 0.65}
-STRATIFICATION = 0.25  # the sampled modes' error falls as N^-(0.5 + this): stratified sets, filtering
+MIS_FACTOR = 0.65
+STRATIFICATION = 0.25  # MIS's error falls as N^-(0.5 + this): stratified sets
 SH_TABLE_ERROR = 0.005
 # milliseconds per 128² reference-view frame on the machine the lab was measured on
 # (llvmpipe; docs/bench/lighting_auto.json has this machine's own): only the order matters
@@ -85,7 +90,7 @@ def choose_lighting(source, env: EnvironmentMap, tolerance: float = DEFAULT_TOLE
         raise BRDFLabError(f"tolerance {tolerance!r}: expected a relative error between 0 and 1 (e.g. 0.02)")
     pilot = make_pilot(source, env)
     proxy = proxy if proxy is not None else proxy_lobes(source)
-    candidates = sorted(predict_all(proxy, pilot), key=lambda c: c.cost_ms)
+    candidates = sorted(predict_all(source, proxy, env, pilot), key=lambda c: c.cost_ms)
     within = [c for c in candidates if c.predicted_error <= tolerance]
     chosen = within[0] if within else min(candidates, key=lambda c: c.predicted_error)
     cheaper = [c for c in candidates if c.cost_ms < chosen.cost_ms]
@@ -107,9 +112,11 @@ def map_character(pilot: Pilot) -> str:
     return f"map: its brightest 1 % of texels carry {100 * top[:k].sum() / max(top.sum(), 1e-300):.0f} % of its power"
 
 
-def predict_all(proxy, pilot: Pilot) -> list[Candidate]:
+def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candidate]:
     """Every candidate with its predicted error and frame cost (`proxy`: the analytic lobes
     the renderer draws the source with where it cannot use measured data directly)."""
+    from brdflab.lighting.auto_fis import fis_errors, fis_frames
+
     out = [Candidate("prefiltered", None, prefiltered_error(proxy, pilot), FRAME_COST_MS["prefiltered"](None),
                      "split sum: lobe shape at n = v, equivalent roughness")]
     for order in SH_ORDERS:
@@ -117,13 +124,14 @@ def predict_all(proxy, pilot: Pilot) -> list[Candidate]:
         err = float(np.hypot(truncated, SH_TABLE_ERROR))
         out.append(Candidate("sh", order, err, FRAME_COST_MS["sh"](order),
                              f"map × lobe energy beyond order {order}: {100 * truncated:.1f} %"))
-    pdf_brdf = brdf_pdf(proxy, pilot)
-    pdf_env = environment_pdf(pilot)
-    for mode, pdf in (("fis", pdf_brdf), ("mis", 0.5 * pdf_brdf + 0.5 * pdf_env[:, None])):
-        for n in SAMPLE_COUNTS:
-            err = SAMPLED_FACTOR[mode] * pilot.sampled_error(pdf, n) * (n / 4) ** -STRATIFICATION
-            out.append(Candidate(mode, n, err, FRAME_COST_MS[mode](n),
-                                 f"one-sample variance over {n} stratified samples"))
+    for n, err in fis_errors(source, proxy, env, SAMPLE_COUNTS, fis_frames()).items():
+        out.append(Candidate("fis", n, err, FRAME_COST_MS["fis"](n),
+                             f"its {n}-sample estimator at {FIS_PILOT_GRID}² pixels against a converged one"))
+    pdf = 0.5 * brdf_pdf(proxy, pilot) + 0.5 * environment_pdf(pilot)[:, None]
+    for n in SAMPLE_COUNTS:
+        err = MIS_FACTOR * pilot.sampled_error(pdf, n) * (n / 4) ** -STRATIFICATION
+        out.append(Candidate("mis", n, err, FRAME_COST_MS["mis"](n),
+                             f"one-sample variance over {n} stratified samples"))
     return out
 
 
@@ -150,18 +158,12 @@ def prefiltered_error(proxy, pilot: Pilot) -> float:
 
 def brdf_pdf(material, pilot: Pilot) -> np.ndarray:
     """The renderer's BRDF sampling density (texels, pixels): the lobes it samples (a
-    measured source's proxy) mixed by their sample shares; lobes without a sampler draw
-    cosine-weighted."""
+    measured source's proxy) mixed by their sample shares."""
+    from brdflab.lighting.auto_fis import mixture_pdf
     from brdflab.lighting.sampling_sets import lobe_shares
 
     wo = np.broadcast_to(pilot.wo[None], pilot.local.shape)
-    pdf = np.zeros(pilot.local.shape[:2])
-    for share, lobe in zip(lobe_shares(material), material.lobes):
-        if lobe.model.samplable:
-            pdf += share * lobe.model.pdf(pilot.local, wo, lobe.params)
-        else:
-            pdf += share * np.maximum(pilot.local[..., 2], 0.0) / np.pi
-    return pdf
+    return mixture_pdf(material, pilot.local, wo, lobe_shares(material))
 
 
 def environment_pdf(pilot: Pilot) -> np.ndarray:
