@@ -5,8 +5,8 @@ texel converges to the quadrature instead of plateauing on a bilinear reading of
 import numpy as np
 import pytest
 
-from brdflab.lighting.auto_fis import converged_pixels, fis_errors, fis_pixels
-from brdflab.lighting.envmap import EnvironmentMap, texel_of
+from brdflab.lighting.auto_fis import PilotPixels, converged_pixels, fis_errors, fis_pixels, fis_pixels_of
+from brdflab.lighting.envmap import EnvironmentMap, texel_of, uv_to_direction
 from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.reference_view import refined_environment_image, relative_rmse, sphere_view
 from brdflab.material.analytic import AnalyticMaterial, Lobe
@@ -82,7 +82,36 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     assert relative_rmse(truth, reference[inside], np.ones(len(truth), bool)) < 0.01
     renderer.set_source(mat)
     renderer.set_environment(env)
-    predicted = fis_errors(mat, mat, env, (16, 256), frames(SIZE))
+    every = frames(SIZE)
+    predicted = fis_errors(mat, mat, env, (16, 256), PilotPixels(every, np.full(len(every[0]), 1.0 / len(every[0]))))
     for n, p in predicted.items():
         measured = relative_rmse(renderer.render(RenderSettings("fis", SIZE, SIZE, samples=n)), reference, inside)
         assert measured / 1.5 <= p <= 1.5 * measured, (n, p, measured)
+
+
+def test_pilot_pixels_include_the_suns_highlight_and_weigh_the_view():
+    """The pixels mirroring the sun are all among the pilot's, and the weights are the view's
+    shares: the hot part's weight is the share of a fine grid's pixels that are hot."""
+    env = sun_map()
+    pixels = fis_pixels_of(env)
+    assert abs(pixels.weight.sum() - 1.0) < 1e-12 and (pixels.weight > 0).all()
+    sun = np.array([0.45, 0.8, 0.4]) / np.linalg.norm([0.45, 0.8, 0.4])
+    normal = pixels.frames[0]
+    mirror = 2.0 * normal[:, 2:3] * normal - np.array([0.0, 0.0, 1.0])
+    near = mirror @ sun > np.cos(np.radians(8.0))
+    assert near.sum() >= 8  # as many as a 48² view has there; the regular 20² grid alone has one
+    # the hot part's weight: the share of a 48² view whose mirror direction is within
+    # 8° + a texel diagonal of the sun texel's centre
+    row, col = texel_of(sun, 32, 64)
+    centre = uv_to_direction((col + 0.5) / 64, (row + 0.5) / 32)
+    view = sphere_view(48, 48)
+    n48 = view.normal[view.inside]
+    m48 = 2.0 * n48[:, 2:3] * n48 - np.array([0.0, 0.0, 1.0])
+    share = np.mean(m48 @ centre >= np.cos(np.radians(8.0) + np.pi / 32 * np.sqrt(2.0)))
+    assert 0.0 < share < 0.2
+    hot = pixels.weight != pixels.weight[0]  # the regular grid comes first
+    assert abs(pixels.weight[hot].sum() - share) < 1e-9
+    # a map without a bright source: the regular grid alone, equal weights
+    flat = EnvironmentMap(np.ones((32, 64, 3), np.float32), "flat", None)
+    flat_pixels = fis_pixels_of(flat)
+    assert np.allclose(flat_pixels.weight, flat_pixels.weight[0])

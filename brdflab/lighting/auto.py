@@ -15,9 +15,10 @@ with a Lambertian and Blinn–Phong n = 100 (measured against the quadrature at 
 samples); the benchmark's other 30 pairs were not used (venice is also one of its maps).
 FIS has no factor: its prediction is the error of the renderer's own estimator (its sample
 set, sampler and filtered lookups, reproduced to 1e-5) against a converged estimate at
-FIS_PILOT_GRID² pixels; the law above missed what a lobe narrower than the pilot map's texels
-gathers from a small sun (7× too low). Its pixel count was chosen on three maps the benchmark
-does not use (memorial, studio, sunset). SH adds its tables' own error (`SH_TABLE_ERROR`), a floor.
+a 20² grid of pixels plus the pixels that mirror the map's brightest texels; the law above
+missed what a lobe narrower than the pilot map's texels gathers from a small sun (7× too
+low). The pixels were chosen on three maps the benchmark does not use (memorial, studio,
+sunset) and on its quarry sun, where the 20² grid alone still missed the highlight. SH adds its tables' own error (`SH_TABLE_ERROR`), a floor.
 """
 
 from __future__ import annotations
@@ -27,7 +28,6 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.lighting.auto_fis import FIS_PILOT_GRID
 from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
 from brdflab.lighting.envmap import EnvironmentMap
 
@@ -115,7 +115,7 @@ def map_character(pilot: Pilot) -> str:
 def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candidate]:
     """Every candidate with its predicted error and frame cost (`proxy`: the analytic lobes
     the renderer draws the source with where it cannot use measured data directly)."""
-    from brdflab.lighting.auto_fis import fis_errors, fis_frames
+    from brdflab.lighting.auto_fis import fis_errors
 
     out = [Candidate("prefiltered", None, prefiltered_error(proxy, pilot), FRAME_COST_MS["prefiltered"](None),
                      "split sum: lobe shape at n = v, equivalent roughness")]
@@ -124,9 +124,9 @@ def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candid
         err = float(np.hypot(truncated, SH_TABLE_ERROR))
         out.append(Candidate("sh", order, err, FRAME_COST_MS["sh"](order),
                              f"map × lobe energy beyond order {order}: {100 * truncated:.1f} %"))
-    for n, err in fis_errors(source, proxy, env, SAMPLE_COUNTS, fis_frames()).items():
+    for n, err in fis_errors(source, proxy, env, SAMPLE_COUNTS).items():
         out.append(Candidate("fis", n, err, FRAME_COST_MS["fis"](n),
-                             f"its {n}-sample estimator at {FIS_PILOT_GRID}² pixels against a converged one"))
+                             f"its {n}-sample estimator at the pilot pixels against a converged one"))
     pdf = 0.5 * brdf_pdf(proxy, pilot) + 0.5 * environment_pdf(pilot)[:, None]
     for n in SAMPLE_COUNTS:
         err = MIS_FACTOR * pilot.sampled_error(pdf, n) * (n / 4) ** -STRATIFICATION
