@@ -228,8 +228,8 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
         save(doc, Path(args.out))
         payload["out"] = args.out
     lines = [f"Auto ladder ({ladder.metric}; {ladder.fitted_samples} samples fitted, {ladder.held_back_samples} held "
-             f"back; tolerance {tolerance:.1%}; a rung's candidates are screened on a quarter of the fitted "
-             f"samples, the held-back error of that screening in brackets):",
+             f"back; tolerance {tolerance:.1%}; the one-lobe candidates are screened on a quarter of the "
+             f"fitted samples, the held-back error of that screening in brackets):",
              f"{'':2}{'rung':>4}  {'lobes':<48} {'params':>6} {'fitted':>10} {'held back':>10} {'seconds':>8}"]
     for c in ladder.candidates:
         mark = "*" if c is ladder.chosen else ""

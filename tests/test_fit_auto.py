@@ -73,8 +73,9 @@ def test_tolerance_is_honoured_and_runs_are_deterministic(tolerance):
 @needs_shared("merl_slices", "blue-fabric.slice")
 def test_screening_keeps_fits_identical_to_the_exhaustive_run():
     samples = samples_of(read_slice(SLICE))
-    auto = auto_fit(samples, split=1500, models=MODELS, max_lobes=1)
-    full = auto_fit(samples, split=1500, models=MODELS, max_lobes=1, exhaustive=True)
+    models = [*MODELS, "Phong", "OrenNayar", "Schwenk", "Strauss"]  # more than SCREEN_KEEP: some are dropped
+    auto = auto_fit(samples, split=1500, models=models, max_lobes=1)
+    full = auto_fit(samples, split=1500, models=models, max_lobes=1, exhaustive=True)
     reference = {c.lobes: c.error_held_back for c in full.candidates}
     assert all(c.fitted for c in full.candidates)
     assert [c.lobes for c in auto.candidates] == [c.lobes for c in full.candidates]
@@ -83,6 +84,7 @@ def test_screening_keeps_fits_identical_to_the_exhaustive_run():
             assert c.error_held_back == reference[c.lobes]
         else:
             assert c.status == "screened out" and np.isfinite(c.screen_error)
+    assert any(not c.fitted for c in auto.candidates)
     assert auto.chosen.lobes == full.chosen.lobes
 
 
@@ -100,7 +102,9 @@ def test_progress_hears_every_screen_and_full_fit_and_changes_nothing():
     assert [r.step for r in reports] == list(range(1, len(screens) + len(fitted) + 1))
     assert [r.stage for r in reports].count("screened") == len(screens)
     assert all(r.expected >= r.step for r in reports)
-    assert reports[0].expected == 1 + 2 * (len(MODELS) + min(len(MODELS), SCREEN_KEEP))  # two rungs: screens, full fits
+    # rung 1: screens, then full fits of the kept; rung 2: full fits only
+    assert reports[0].expected == 1 + len(MODELS) + min(len(MODELS), SCREEN_KEEP) + len(MODELS)
+    assert all(c.rung == 1 for c in screens) and all(c.fitted for c in ladder.candidates if c.rung == 2)
     best = min(fitted, key=lambda c: c.error_held_back)
     assert reports[-1].best_error == best.error_held_back
     assert reports[-1].best == "+".join(("Lambertian", *best.lobes))

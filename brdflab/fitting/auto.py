@@ -12,11 +12,15 @@ rung's best, one with the fewest parameters (of them the lowest error). The clim
 when the next rung's best held-back error does not improve on the current pick by more
 than T (relative).
 
-To cost less than fitting everything, Auto screens each rung first: every candidate is
-fitted quickly (a quarter of the fitted samples, from its start alone, few steps), and only
-those near the screening's best (see `screen_margin`), or whose screen is inconclusive (no
-better than the rung's base refitted the same quick way), are fitted fully, from the same
-start as without screening.
+To cost less than fitting everything, Auto screens the first rung: every one-lobe
+candidate is fitted quickly (a quarter of the fitted samples, from its start alone, few
+steps), and only those near the screening's best (see `screen_margin`), at least the
+SCREEN_KEEP best, or whose screen is inconclusive (no better than the Lambertian refitted the
+same quick way), are fitted fully, from the same start as without screening. Later rungs are
+fitted fully: there a quick fit of one lobe added to a fitted base ranks the candidates no
+better than chance (violet-acrylic, rung 2: the worst screen was the best full fit; brass and
+ss440 lost their best rung-2 base to the screen), and every candidate was kept anyway on the
+slices where each rung paid, so the screens only added their cost (docs/benchmarks.md).
 `exhaustive=True` fully fits every candidate of every rung, past the stop too: the
 reference Auto is checked against (`benchmarks/fit_auto.py`).
 
@@ -49,7 +53,9 @@ DEFAULT_TOLERANCE = 0.05
 DEFAULT_SPLIT = 20_000  # samples fitted, and as many held back
 MAX_LOBES = 3  # after the Lambertian
 SPLIT_SEED = 13
-SCREEN_KEEP = 3  # Auto fully fits at least this many of a rung's screened candidates
+SCREENED_RUNGS = 1  # rungs screened before their full fits (see the module doc)
+SCREEN_KEEP = 4  # Auto fully fits at least this many of a screened rung's candidates (with 3, the
+# specular phenolics lost Cook–Torrance GGX, 4th of 15 by 0.1 % of its screen, their best lobe)
 SCREEN_MIN_MARGIN = 0.15
 SCREEN_MIN_SAMPLES = 500
 SCREEN_ITERATIONS = 25  # a screening fit: from the start alone (no restarts), this many LM steps at most
@@ -143,9 +149,11 @@ class _Climb:
     def __init__(self, progress: Callable[[AutoProgress], None] | None, cancel: Cancel | None,
                  rungs: int, models: int, exhaustive: bool) -> None:
         self.progress, self.cancel = progress, cancel
-        self.per_rung = models if exhaustive else models + min(models, SCREEN_KEEP)
+        self.models = models
+        self.screened_rungs = 0 if exhaustive else min(rungs, SCREENED_RUNGS)
         self.rungs_left = rungs
-        self.step, self.expected = 0, 1 + rungs * self.per_rung
+        self.step = 0
+        self.expected = 1 + self.screened_rungs * (models + min(models, SCREEN_KEEP)) + (rungs - self.screened_rungs) * models
         self.best: Candidate | None = None
 
     def stop_if_cancelled(self, candidate: Candidate, result: FitResult) -> None:
@@ -154,9 +162,9 @@ class _Climb:
             raise _Cancelled(candidate)
 
     def screened(self, kept: int) -> None:
-        """A rung's screening is done and keeps `kept` to fit fully: the estimate follows."""
+        """A rung's screening (if any) is done and keeps `kept` to fit fully: the estimate follows."""
         self.rungs_left -= 1
-        self.expected = self.step + kept + self.rungs_left * self.per_rung
+        self.expected = self.step + kept + self.rungs_left * self.models
 
     def report(self, candidate: Candidate, stage: str) -> None:
         self.step += 1
@@ -361,7 +369,8 @@ def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: s
                 break
             rung = sorted((_candidate(rung_index, (*base.lobes, m), combination, channels) for m in names),
                           key=lambda c: (c.parameters, c.evaluation_ns, c.lobes))
-            full = rung if exhaustive else _screen(rung, base, fitted, held_back, combination, options, tolerance, climb)
+            screened = not exhaustive and rung_index <= SCREENED_RUNGS
+            full = _screen(rung, base, fitted, held_back, combination, options, tolerance, climb) if screened else rung
             climb.screened(len(full))
             for c in full:
                 _fit_fully(c, base, fitted, held_back, combination, options, climb)
