@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 from brdflab.errors import BRDFLabError
 from brdflab.sources.measured import MeasuredTable, tabulate, write_merl_binary

@@ -3,7 +3,7 @@
 import numpy as np
 
 from brdflab.geometry.sampling import cosine_power_around, cosine_power_pdf, stable_axis
-from brdflab.geometry.vec import TINY, dot
+from brdflab.geometry.vec import TINY
 from brdflab.models.base import LobeModel, Parameter, SplitSum, normalised_phong_factor, phong_roughness
 from brdflab.models.registry import register
 
