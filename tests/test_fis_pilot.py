@@ -5,7 +5,7 @@ texel converges to the quadrature instead of plateauing on a bilinear reading of
 import numpy as np
 import pytest
 
-from brdflab.lighting.auto_fis import PilotPixels, converged_pixels, fis_errors, fis_pixels, fis_pixels_of
+from brdflab.lighting.auto_fis import PilotPixels, converged_pixels, fis_errors, fis_pixels, fis_pixels_of, view_pilot
 from brdflab.lighting.envmap import EnvironmentMap, texel_of, uv_to_direction
 from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.reference_view import refined_environment_image, relative_rmse, sphere_view
@@ -83,7 +83,8 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     renderer.set_source(mat)
     renderer.set_environment(env)
     every = frames(SIZE)
-    predicted = fis_errors(mat, mat, env, (16, 256), PilotPixels(every, np.full(len(every[0]), 1.0 / len(every[0]))))
+    uniform = PilotPixels(every, np.full(len(every[0]), 1.0 / len(every[0])))
+    predicted = fis_errors(mat, mat, env, (16, 256), view_pilot(mat, mat, env, uniform))
     for n, p in predicted.items():
         measured = relative_rmse(renderer.render(RenderSettings("fis", SIZE, SIZE, samples=n)), reference, inside)
         assert measured / 1.5 <= p <= 1.5 * measured, (n, p, measured)

@@ -205,14 +205,29 @@ def converged_pixels(source, proxy, env: EnvironmentMap, frames, count: int = TR
     return value.mean(axis=1)
 
 
-def fis_errors(source, proxy, env: EnvironmentMap, counts, pixels: PilotPixels | None = None) -> dict[int, float]:
-    """Per sample count N: the FIS mode's relative RMSE (RGB, as the reference view's error
-    is measured) over the view, from the pilot pixels (`fis_pixels_of` unless given) against
-    `converged_pixels` (which carries its own small error into the prediction)."""
+@dataclass(frozen=True)
+class ViewPilot:
+    """The pilot pixels and their converged values: what a mode's pixels are scored against."""
+
+    pixels: PilotPixels
+    truth: np.ndarray  # (pixels, 3) RGB
+
+    def error(self, values: np.ndarray) -> float:
+        """Relative RMSE (RGB, as the reference view's error is measured) over the view."""
+        w = self.pixels.weight[:, None]
+        rms = max(float(np.sqrt((w * self.truth**2).sum() / 3)), 1e-300)
+        return float(np.sqrt((w * (values - self.truth) ** 2).sum() / 3)) / rms
+
+
+def view_pilot(source, proxy, env: EnvironmentMap, pixels: PilotPixels | None = None) -> ViewPilot:
+    """The pilot pixels (`fis_pixels_of` unless given) with their `converged_pixels`, whose
+    own small error is carried into every prediction made against them."""
     pixels = pixels or fis_pixels_of(env)
-    w = pixels.weight[:, None]
-    truth = converged_pixels(source, proxy, env, pixels.frames)
+    return ViewPilot(pixels, converged_pixels(source, proxy, env, pixels.frames))
+
+
+def fis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None) -> dict[int, float]:
+    """Per sample count N: the FIS mode's predicted relative RMSE over the view."""
+    pilot = pilot or view_pilot(source, proxy, env)
     levels = [level.astype(float) for level in solid_angle_mips(env.data)]
-    rms = max(float(np.sqrt((w * truth**2).sum() / 3)), 1e-300)
-    return {count: float(np.sqrt((w * (fis_pixels(source, proxy, levels, pixels.frames, count) - truth) ** 2).sum() / 3)) / rms
-            for count in counts}
+    return {count: pilot.error(fis_pixels(source, proxy, levels, pilot.pixels.frames, count)) for count in counts}

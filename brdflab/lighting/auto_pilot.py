@@ -7,10 +7,9 @@ solid angle Ω_t), with g_pt = f(ω_t, wo_p) cos θ_t (luminance): the pixel is 
 (importance-sampled, so a lobe narrower than a texel keeps its energy). From the same sums:
 - SH at order L: the map replaced by its order-L projection (exactly the truncation the SH
   mode makes: Σ_lm B_lm L_lm = ∫ f cos · L_L), negative sums clamped as the renderer does;
-- a sampled mode: the variance of one sample, f cos L / pdf drawn from pdf (the renderer's
-  lobe mixture; for MIS half of it the map's luminance density), by quadrature over texels;
-- prefiltered: the renderer's NumPy twin (`split_sum.prefiltered_image`) on the same pixels.
-This is a few thousand texels at a few dozen pixels: milliseconds to a second, never the
+- MIS: the variance of one sample, f cos L / pdf drawn from pdf (half the renderer's lobe
+  mixture, half the map's luminance density), by quadrature over texels.
+FIS and prefiltered are predicted by their NumPy twins instead (`auto_fis`). This is a few thousand texels at a few dozen pixels: milliseconds to a second, never the
 reference (48² pixels or more against the full map).
 """
 

@@ -113,9 +113,17 @@ def prefiltered_image(material: AnalyticMaterial, env: EnvironmentMap, width: in
     """The prefiltered mode's image in the reference view, computed in NumPy."""
     from brdflab.lighting.reference_view import sphere_view
 
-    stack = prefiltered_stack(env) if stack is None else stack
     view = sphere_view(width, height)
-    n, t, b = view.normal[view.inside], view.tangent[view.inside], view.bitangent[view.inside]
+    frames = (view.normal[view.inside], view.tangent[view.inside], view.bitangent[view.inside])
+    out = np.zeros((height, width, 3))
+    out[view.inside] = prefiltered_pixels(material, prefiltered_stack(env) if stack is None else stack, frames)
+    return out
+
+
+def prefiltered_pixels(material: AnalyticMaterial, stack: PrefilteredStack, frames) -> np.ndarray:
+    """The prefiltered mode's RGB (pixels, 3) at reference-view pixels whose frames are
+    (normal, tangent, bitangent), each (pixels, 3)."""
+    n, t, b = frames
     wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)  # wo = +Z (world) in each pixel's frame
     irradiance = sample_latlong(stack.irradiance(), n)
     colour = np.zeros((len(n), 3))
@@ -131,6 +139,4 @@ def prefiltered_image(material: AnalyticMaterial, env: EnvironmentMap, width: in
             glossy = (1 - w) * sample_latlong(stack.layers[lo], d) + w * sample_latlong(stack.layers[hi], d)
             light = light + (1.0 - split.diffuse_share) * glossy
         colour += rgb * albedo[:, None] * light
-    out = np.zeros((height, width, 3))
-    out[view.inside] = colour
-    return out
+    return colour
