@@ -85,6 +85,7 @@ def test_sharp_lobe_under_the_sun_does_not_pick_sh(renderer):
 
 @pytest.mark.parametrize("model, params, mode, setting", [
     ("Lambertian", {}, "fis", 16),
+    ("BlinnPhong", {"Exponent": 100.0}, "mis", 64),
     ("BlinnPhong", {"Exponent": 100.0}, "sh", 4),
     ("BlinnPhong", {"Exponent": 100.0}, "prefiltered", None),
 ])

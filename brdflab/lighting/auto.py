@@ -1,25 +1,21 @@
 """Auto lighting: the cheapest lighting setting predicted to stay within a tolerance.
 
-The candidates are prefiltered, SH at orders 2–12, FIS and MIS at 4–1024 samples (the
+The candidates are prefiltered, SH at orders 2–8, FIS and MIS at 4–1024 samples (the
 settings the lighting study sweeps), ordered by a frame-cost model. Each gets a predicted
-relative RMSE in the reference view from the pilot (`auto_pilot`): quantities computed
-before rendering from the material and the map alone — the lobes' sharpness, the map's
-energy beyond SH order L and its brightest texels, MIS's one-sample variance, and for FIS and
-prefiltered their own NumPy twins at a few hundred pixels against a converged estimate
-(`auto_fis`). The first candidate whose prediction is within the tolerance is chosen; if none is, the
-one predicted best. Nothing is rendered and no reference image is made.
+relative RMSE in the reference view, computed before rendering from the material and the map
+alone: SH from the map's energy beyond order L seen through the lobe (`auto_pilot`, at ~60
+pixels against a 64 × 32 copy of the map) plus its tables' own error (`SH_TABLE_ERROR`, a
+floor); prefiltered, FIS and MIS from their NumPy twins (`auto_twins`: the renderer's own
+estimators, equal to its images to 1e-5) at a few hundred pixels — a 20² grid plus the pixels
+that mirror the map's brightest texels — against a converged estimate of the same pixels.
+The first candidate whose prediction is within the tolerance is chosen; if none is, the one
+predicted best. Nothing is rendered and no reference image is made.
 
-MIS's prediction is the Monte Carlo √(Var/N) law times a factor (`MIS_FACTOR`) and
-(N/4)^-STRATIFICATION: the renderer's stratified sets converge faster than independent
-samples. The factor and the exponent were calibrated once, by hand, on the shipped venice map
-with a Lambertian and Blinn–Phong n = 100 (measured against the quadrature at 4–1024
-samples); the benchmark's other 30 pairs were not used (venice is also one of its maps).
-FIS has no factor: its prediction is the error of the renderer's own estimator (its sample
-set, sampler and filtered lookups, reproduced to 1e-5) against a converged estimate at
-a 20² grid of pixels plus the pixels that mirror the map's brightest texels; the law above
-missed what a lobe narrower than the pilot map's texels gathers from a small sun (7× too
-low). The pixels were chosen on three maps the benchmark does not use (memorial, studio,
-sunset) and on its quarry sun, where the 20² grid alone still missed the highlight. SH adds its tables' own error (`SH_TABLE_ERROR`), a floor.
+The twins replaced a Monte Carlo √(Var/N) law with a hand-calibrated factor and
+stratification exponent: a quadrature of the variance over the coarse copy cannot see a lobe
+narrower than its texels (FIS was predicted up to 13× low under a small sun), and the factor
+did not carry from map to map (measured/predicted 0.2–1.0 for FIS on memorial, studio and
+sunset, three maps the benchmark does not use).
 """
 
 from __future__ import annotations
@@ -35,8 +31,6 @@ from brdflab.lighting.envmap import EnvironmentMap
 DEFAULT_TOLERANCE = 0.02
 SH_ORDERS = (2, 3, 4, 6, 8)
 SAMPLE_COUNTS = (4, 16, 64, 256, 1024)
-MIS_FACTOR = 0.65
-STRATIFICATION = 0.25  # MIS's error falls as N^-(0.5 + this): stratified sets
 SH_TABLE_ERROR = 0.005
 # milliseconds per 128² reference-view frame on the machine the lab was measured on
 # (llvmpipe; docs/bench/lighting_auto.json has this machine's own): only the order matters
@@ -116,7 +110,7 @@ def map_character(pilot: Pilot) -> str:
 def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candidate]:
     """Every candidate with its predicted error and frame cost (`proxy`: the analytic lobes
     the renderer draws the source with where it cannot use measured data directly)."""
-    from brdflab.lighting.auto_fis import fis_errors, view_pilot
+    from brdflab.lighting.auto_twins import fis_errors, mis_errors, view_pilot
 
     view = view_pilot(source, proxy, env)
     out = [Candidate("prefiltered", None, prefiltered_error(proxy, env, view), FRAME_COST_MS["prefiltered"](None),
@@ -129,11 +123,9 @@ def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candid
     for n, err in fis_errors(source, proxy, env, SAMPLE_COUNTS, view).items():
         out.append(Candidate("fis", n, err, FRAME_COST_MS["fis"](n),
                              f"its {n}-sample estimator at the pilot pixels against a converged one"))
-    pdf = 0.5 * brdf_pdf(proxy, pilot) + 0.5 * environment_pdf(pilot)[:, None]
-    for n in SAMPLE_COUNTS:
-        err = MIS_FACTOR * pilot.sampled_error(pdf, n) * (n / 4) ** -STRATIFICATION
+    for n, err in mis_errors(source, proxy, env, SAMPLE_COUNTS, view).items():
         out.append(Candidate("mis", n, err, FRAME_COST_MS["mis"](n),
-                             f"one-sample variance over {n} stratified samples"))
+                             f"its {n}-sample estimator at the pilot pixels against a converged one"))
     return out
 
 
@@ -149,27 +141,10 @@ def truncation_error(pilot: Pilot, order: int) -> float:
 def prefiltered_error(proxy, env: EnvironmentMap, view) -> float:
     """The split sum's error over the view: the renderer's NumPy twin drawing `proxy` (a
     measured source's fitted lobes, as the renderer does) with the renderer's own stack of
-    the map, at the FIS pilot's pixels against their converged values (`auto_fis.ViewPilot`).
+    the map, at the FIS pilot's pixels against their converged values (`auto_twins.ViewPilot`).
     On a 64 × 32 copy of the map at the 9² pixels it read 2.7 % for Blinn–Phong n = 1000
     under the sunset, where the render is 1.6 % off."""
     from brdflab.lighting.prefilter import prefiltered_stack
     from brdflab.lighting.split_sum import prefiltered_pixels
 
     return view.error(prefiltered_pixels(proxy, prefiltered_stack(env), view.pixels.frames))
-
-
-def brdf_pdf(material, pilot: Pilot) -> np.ndarray:
-    """The renderer's BRDF sampling density (texels, pixels): the lobes it samples (a
-    measured source's proxy) mixed by their sample shares."""
-    from brdflab.lighting.auto_fis import mixture_pdf
-    from brdflab.lighting.sampling_sets import lobe_shares
-
-    wo = np.broadcast_to(pilot.wo[None], pilot.local.shape)
-    return mixture_pdf(material, pilot.local, wo, lobe_shares(material))
-
-
-def environment_pdf(pilot: Pilot) -> np.ndarray:
-    """The map's luminance density per solid angle (texels,), as MIS draws from it."""
-    lum = np.maximum(pilot.radiance, 0.0)
-    total = (lum * pilot.solid).sum()
-    return lum / total if total > 0 else np.full_like(lum, 1.0 / (4 * np.pi))

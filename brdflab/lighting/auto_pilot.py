@@ -7,9 +7,7 @@ solid angle Ω_t), with g_pt = f(ω_t, wo_p) cos θ_t (luminance): the pixel is 
 (importance-sampled, so a lobe narrower than a texel keeps its energy). From the same sums:
 - SH at order L: the map replaced by its order-L projection (exactly the truncation the SH
   mode makes: Σ_lm B_lm L_lm = ∫ f cos · L_L), negative sums clamped as the renderer does;
-- MIS: the variance of one sample, f cos L / pdf drawn from pdf (half the renderer's lobe
-  mixture, half the map's luminance density), by quadrature over texels.
-FIS and prefiltered are predicted by their NumPy twins instead (`auto_fis`). This is a few thousand texels at a few dozen pixels: milliseconds to a second, never the
+Prefiltered, FIS and MIS are predicted by their NumPy twins instead (`auto_twins`). This is a few thousand texels at a few dozen pixels: milliseconds to a second, never the
 reference (48² pixels or more against the full map).
 """
 
@@ -48,18 +46,6 @@ class Pilot:
         """The reference view's error measure over the pilot pixels."""
         truth = self.estimate(self.radiance)
         return float(np.sqrt(np.mean((estimate - truth) ** 2)) / max(np.sqrt(np.mean(truth**2)), 1e-300))
-
-    def sampled_error(self, pdf: np.ndarray, samples: int) -> float:
-        """Relative RMSE of an N-sample estimator drawing from `pdf` (texels, pixels):
-        √(mean_p Var_p / N) / rms μ, Var_p by quadrature of the one-sample estimator."""
-        weight = pdf * self.solid[:, None]
-        weight = weight / np.maximum(weight.sum(axis=0, keepdims=True), 1e-300)
-        value = self.g * self.radiance[:, None] / np.maximum(pdf, 1e-300)
-        mean = (weight * value).sum(axis=0)
-        var = np.maximum((weight * value**2).sum(axis=0) - mean**2, 0.0)
-        scale = self.estimate(self.radiance) / np.maximum(mean, 1e-300)  # to μ_p's normalisation
-        truth = self.estimate(self.radiance)
-        return float(np.sqrt(np.mean(var * scale**2) / samples) / max(np.sqrt(np.mean(truth**2)), 1e-300))
 
 
 def pilot_map(env: EnvironmentMap) -> EnvironmentMap:

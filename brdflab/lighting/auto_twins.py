@@ -1,15 +1,19 @@
-"""The FIS mode's pilot: the renderer's own estimator, run in NumPy at a few hundred pixels.
+"""Auto lighting's twins: the renderer's FIS and MIS estimators run in NumPy at a few hundred
+pixels of the reference view, and the converged values they (and the prefiltered twin,
+`split_sum.prefiltered_pixels`) are scored against.
 
-A quadrature of the one-sample variance over a coarse copy of the map (what the MIS
-prediction uses) cannot see a lobe narrower than the copy's texels: the lobe falls in one
-texel, the radiance it gathers looks constant, and the predicted error was up to 7× too low
-for a sharp lobe under a small sun. Here each pilot pixel is shaded as the renderer shades
-it with N samples (its Hammersley set and lobe shares, each lobe's own sampler and the
-mixture density, the full map read through `filtered_radiance` as shaders/object_fragment.glsl
-reads it; the result equals the renderer's to 1e-5), and compared with a converged estimate
-(`converged_pixels`: TRUTH_SAMPLES per pixel, half from the lobes, half from the map). Both
-are estimates, so the prediction carries the converged one's own error (≈ 0.3 %) and the
-sampling of the pixels (the view's error is the RMS over all of its pixels).
+A quadrature of the one-sample variance over a coarse copy of the map cannot see a lobe
+narrower than the copy's texels: the lobe falls in one texel, the radiance it gathers looks
+constant, and the predicted error was up to 13× too low for a sharp lobe under a small sun.
+Here each pilot pixel is shaded as the renderer shades it with N samples — its Hammersley
+sets and lobe shares, each lobe's own sampler, the mixture density; for FIS the full map
+read through `filtered_radiance` as shaders/object_fragment.glsl reads it, for MIS half the
+samples drawn from the map's luminance and weighted by the power heuristic — and the result
+equals the renderer's to 1e-5 (tests/test_auto_twins.py). It is compared with a converged
+estimate (`converged_pixels`: TRUTH_SAMPLES per pixel, half from the lobes, half from the
+map), at pixels chosen so that a sun's highlight is not missed (`fis_pixels_of`). Both are
+estimates: the prediction carries the converged one's own error (≈ 0.3 %) and the sampling
+of the pixels (the view's error is the RMS over all of its pixels).
 """
 
 from __future__ import annotations
@@ -181,6 +185,31 @@ def fis_pixels(source, proxy, levels: list[np.ndarray], frames, count: int) -> n
     return np.where(ok[..., None], _f_cos(source, frames, wi) * radiance / pdf[..., None], 0.0).sum(axis=1) / len(data)
 
 
+def mis_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int) -> np.ndarray:
+    """The MIS mode's RGB value (pixels, 3) at each pilot pixel with `count` samples: the
+    renderer's own set (`mis_sample_set`: half from the lobes, half from the map's luminance
+    `dist`), Veach's multi-sample estimator with the power heuristic, the map texel by texel."""
+    from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set
+
+    data, fractions, env_fraction = mis_sample_set(lobe_shares(proxy), count)
+    n, t, b = frames
+    from_map = data[:, 2] < 0
+    wi = _lobe_directions(proxy, frames, data)
+    drawn = dist.sample(data[from_map, :2].astype(float))  # world directions, shared by every pixel
+    wi[:, from_map] = np.stack([np.einsum("jc,pc->pj", drawn, axis) for axis in (t, b, n)], axis=-1)
+    world = _to_world(frames, wi)
+    p_map = env_fraction * dist.pdf(world)
+    p_lobes = (1.0 - env_fraction) * mixture_pdf(proxy, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
+    own = np.where(from_map, p_map, p_lobes)
+    other = np.where(from_map, p_lobes, p_map)
+    ok = (wi[..., 2] > 0) & (own > 0)
+    own = np.where(ok, own, 1.0)
+    weight = np.where(ok, 1.0 / (1.0 + (other / own) ** 2), 0.0)  # the power heuristic, as the shader writes it
+    radiance = env.data.astype(float)[texel_of(world, env.height, env.width)]
+    value = _f_cos(source, frames, wi) * radiance * (weight / own)[..., None]
+    return value.sum(axis=1) / len(data)
+
+
 def converged_pixels(source, proxy, env: EnvironmentMap, frames, count: int = TRUTH_SAMPLES) -> np.ndarray:
     """The pilot pixels' RGB values (pixels, 3) by a large estimate against the map texel by
     texel: half the samples from the lobes, half from the map's luminance, each weighted by
@@ -224,6 +253,15 @@ def view_pilot(source, proxy, env: EnvironmentMap, pixels: PilotPixels | None = 
     own small error is carried into every prediction made against them."""
     pixels = pixels or fis_pixels_of(env)
     return ViewPilot(pixels, converged_pixels(source, proxy, env, pixels.frames))
+
+
+def mis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None) -> dict[int, float]:
+    """Per sample count N: the MIS mode's predicted relative RMSE over the view."""
+    from brdflab.lighting.env_sampling import environment_distribution
+
+    pilot = pilot or view_pilot(source, proxy, env)
+    dist = environment_distribution(env)
+    return {count: pilot.error(mis_pixels(source, proxy, env, dist, pilot.pixels.frames, count)) for count in counts}
 
 
 def fis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None) -> dict[int, float]:
