@@ -1,11 +1,14 @@
-"""The FIS mode against the map it is given: its NumPy twin (lighting/auto_fis.py, the Auto
-choice's FIS pilot) reproduces the renderer pixel for pixel, and a lobe narrower than a
-texel converges to the quadrature instead of plateauing on a bilinear reading of the map."""
+"""Auto lighting's twins (lighting/auto_twins.py) against the renderer: FIS and MIS
+reproduce it pixel for pixel, a lobe narrower than a texel converges to the quadrature
+instead of plateauing on a bilinear reading of the map, and the pilot's pixels catch a sun's
+highlight and weigh the view."""
 
 import numpy as np
 import pytest
 
-from brdflab.lighting.auto_fis import PilotPixels, converged_pixels, fis_errors, fis_pixels, fis_pixels_of, view_pilot
+from brdflab.lighting.auto_twins import (PilotPixels, converged_pixels, fis_errors, fis_pixels, fis_pixels_of,
+                                         mis_errors, mis_pixels, view_pilot)
+from brdflab.lighting.env_sampling import environment_distribution
 from brdflab.lighting.envmap import EnvironmentMap, texel_of, uv_to_direction
 from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.reference_view import refined_environment_image, relative_rmse, sphere_view
@@ -41,17 +44,20 @@ def renderer():
     return ObjectRenderer(create_context())
 
 
+@pytest.mark.parametrize("mode", ["fis", "mis"])
 @pytest.mark.parametrize("count", [16, 256])
-def test_twin_reproduces_the_renderer(renderer, count):
-    """Sample set, lobe shares, samplers, mixture density and filtered lookups all match:
-    any difference beyond float32 rounding would be a different estimator."""
+def test_twin_reproduces_the_renderer(renderer, mode, count):
+    """Sample set, lobe shares, samplers, mixture density, map sampling, MIS weights and
+    lookups all match: any difference beyond float32 rounding would be another estimator."""
     mat = material(Lobe.create("Lambertian", [0.3, 0.2, 0.1]), Lobe.create("CookTorrance", [0.5] * 3, m=0.1, F0=0.5))
     env = sun_map()
     renderer.set_source(mat)
     renderer.set_environment(env)
-    gpu = renderer.render(RenderSettings("fis", SIZE, SIZE, samples=count))[sphere_view(SIZE, SIZE).inside]
-    levels = [level.astype(float) for level in solid_angle_mips(env.data)]
-    twin = fis_pixels(mat, mat, levels, frames(SIZE), count)
+    gpu = renderer.render(RenderSettings(mode, SIZE, SIZE, samples=count))[sphere_view(SIZE, SIZE).inside]
+    if mode == "fis":
+        twin = fis_pixels(mat, mat, [level.astype(float) for level in solid_angle_mips(env.data)], frames(SIZE), count)
+    else:
+        twin = mis_pixels(mat, mat, env, environment_distribution(env), frames(SIZE), count)
     assert np.abs(twin - gpu).max() <= 1e-4 * np.abs(gpu).max()
 
 
@@ -72,8 +78,8 @@ def test_sub_texel_lobe_converges_to_the_quadrature(renderer):
 
 
 def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
-    """The pilot's converged value is within 1 % of the quadrature, and its predicted FIS
-    errors are within 1.5× of the renderer's measured ones under a small sun."""
+    """The pilot's converged value is within 1 % of the quadrature, and its predicted FIS and
+    MIS errors are within 1.5× of the renderer's measured ones under a small sun."""
     mat = material(Lobe.create("Lambertian", [0.2] * 3), Lobe.create("BlinnPhong", [0.5] * 3, Exponent=300.0))
     env = sun_map()
     inside = sphere_view(SIZE, SIZE).inside
@@ -84,10 +90,11 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     renderer.set_environment(env)
     every = frames(SIZE)
     uniform = PilotPixels(every, np.full(len(every[0]), 1.0 / len(every[0])))
-    predicted = fis_errors(mat, mat, env, (16, 256), view_pilot(mat, mat, env, uniform))
-    for n, p in predicted.items():
-        measured = relative_rmse(renderer.render(RenderSettings("fis", SIZE, SIZE, samples=n)), reference, inside)
-        assert measured / 1.5 <= p <= 1.5 * measured, (n, p, measured)
+    pilot = view_pilot(mat, mat, env, uniform)
+    for mode, errors in (("fis", fis_errors), ("mis", mis_errors)):
+        for n, p in errors(mat, mat, env, (16, 256), pilot).items():
+            measured = relative_rmse(renderer.render(RenderSettings(mode, SIZE, SIZE, samples=n)), reference, inside)
+            assert measured / 1.5 <= p <= 1.5 * measured, (mode, n, p, measured)
 
 
 def test_pilot_pixels_include_the_suns_highlight_and_weigh_the_view():
