@@ -37,17 +37,19 @@ vec2 env_uv(vec3 d) { return env_uv(d, u_env_rotation); }
 // (Ωp the texel's solid angle, ∝ sin θ) made a box twice the sample spacing, taller still
 // near the poles; a box that wide gathers light from beyond the local horizon, and
 // biased FIS at low counts (docs/mis.md).
-// Below one level the finest level is read texel by texel, blended towards level 1: a
-// sample narrower than a texel sees the map constant per texel, as the quadrature reference
-// and MIS do (a bilinear lookup there integrates another map: a sub-texel lobe under a
-// one-texel sun was off by 10 % at any sample count).
+// A footprint of a texel or more is filtered as before (bilinear at level 0, trilinear
+// above); below a texel the lookup turns to the texel itself, fully at half a texel: a sample
+// narrower than a texel sees the map constant per texel, as the quadrature reference and MIS
+// do (bilinear there integrates another map: a sub-texel lobe under a one-texel sun stayed
+// 10 % off at any count). Turning at one texel instead (texel by texel up to level 1) tripled
+// broad lobes' noise under a sun at 1024 samples (Blinn–Phong n = 100: 2.3 → 7.1 %).
 vec3 filtered_env(vec3 d, float omega_s) {
-    float lod = clamp(log2(sqrt(omega_s) * u_env_size.y / PI), 0.0, u_env_max_lod);
+    float lod = log2(sqrt(omega_s) * u_env_size.y / PI);
     vec2 uv = env_uv(d);
-    if (lod >= 1.0) return textureLod(u_env, uv, lod).rgb;
+    if (lod >= 0.0) return textureLod(u_env, uv, min(lod, u_env_max_lod)).rgb;
     ivec2 size = textureSize(u_env, 0);
     vec3 texel = texelFetch(u_env, clamp(ivec2(floor(uv * vec2(size))), ivec2(0), size - 1), 0).rgb;
-    return u_env_max_lod >= 1.0 ? mix(texel, textureLod(u_env, uv, 1.0).rgb, lod) : texel;
+    return lod <= -1.0 ? texel : mix(texel, textureLod(u_env, uv, 0.0).rgb, lod + 1.0);
 }
 
 void main() {

@@ -117,23 +117,30 @@ def _bilinear(level: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def filtered_radiance(levels: list[np.ndarray], d: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """The map as shaders/object_fragment.glsl `filtered_env` reads it: direction d (…, 3)
-    filtered over solid angle omega (…); `levels` from `solid_angle_mips`."""
+    filtered over solid angle omega (…); `levels` from `solid_angle_mips`. A footprint of a
+    texel or more: trilinear (bilinear within a level); below it, blended towards the texel
+    itself, reached at half a texel."""
     height = levels[0].shape[0]
     u, v = direction_to_uv(d)
     max_lod = len(levels) - 1
     with np.errstate(divide="ignore"):
-        lod = np.clip(np.log2(np.sqrt(omega) * height / np.pi), 0.0, max_lod)
-    lod = np.nan_to_num(lod, nan=0.0)
+        lod = np.log2(np.sqrt(omega) * height / np.pi)
+    lod = np.nan_to_num(lod, nan=-1.0, neginf=-1.0, posinf=float(max_lod))
     rows = np.clip(np.floor(v * height).astype(int), 0, height - 1)
     cols = np.clip(np.floor(u * levels[0].shape[1]).astype(int), 0, levels[0].shape[1] - 1)
     out = levels[0][rows, cols].astype(float)
-    for k in range(max_lod):  # between levels k and k + 1: texel by texel at 0, bilinear above
-        sel = (lod > k) & (lod <= k + 1)
-        if not sel.any():
-            continue
-        lower = out[sel] if k == 0 else _bilinear(levels[k], u[sel], v[sel])
-        t = (lod[sel] - k)[:, None]
-        out[sel] = lower * (1 - t) + _bilinear(levels[k + 1], u[sel], v[sel]) * t
+    sub = (lod > -1.0) & (lod < 0.0)  # part texel, part bilinear at level 0
+    if sub.any():
+        t = (lod[sub] + 1.0)[:, None]
+        out[sub] = out[sub] * (1 - t) + _bilinear(levels[0], u[sub], v[sub]) * t
+    at_top = lod >= max_lod
+    if at_top.any():
+        out[at_top] = _bilinear(levels[max_lod], u[at_top], v[at_top])
+    for k in range(max_lod):  # trilinear between levels k and k + 1
+        sel = (lod >= k) & (lod < k + 1)
+        if sel.any():
+            t = (lod[sel] - k)[:, None]
+            out[sel] = _bilinear(levels[k], u[sel], v[sel]) * (1 - t) + _bilinear(levels[k + 1], u[sel], v[sel]) * t
     return out
 
 
