@@ -84,7 +84,7 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     env = sun_map()
     inside = sphere_view(SIZE, SIZE).inside
     reference = refined_environment_image(mat, env, SIZE, SIZE)
-    truth = converged_pixels(mat, mat, env, frames(SIZE), 8192)
+    truth = converged_pixels(mat, mat, env, environment_distribution(env), frames(SIZE), 8192)
     assert relative_rmse(truth, reference[inside], np.ones(len(truth), bool)) < 0.01
     renderer.set_source(mat)
     renderer.set_environment(env)

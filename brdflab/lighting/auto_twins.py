@@ -24,8 +24,9 @@ import numpy as np
 
 from brdflab.geometry.sampling import cosine_hemisphere
 from brdflab.lighting.auto_pilot import LUMINANCE
-from brdflab.lighting.envmap import EnvironmentMap, direction_to_uv, texel_of
+from brdflab.lighting.envmap import EnvironmentMap, texel_of
 from brdflab.lighting.mip_pyramid import solid_angle_mips
+from brdflab.lighting.split_sum import sample_latlong
 
 FIS_PILOT_GRID = 20  # the pilot pixels: the centres of a 20 × 20 reference view inside the sphere (≈ 310)
 HOT_GRID = 48  # … plus, at this finer grid, the pixels that mirror the map's brightest texels
@@ -102,45 +103,29 @@ def mixture_pdf(material, wi: np.ndarray, wo: np.ndarray, shares: np.ndarray) ->
     return pdf
 
 
-def _bilinear(level: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """GL's LINEAR lookup of one level: columns repeat, rows clamp."""
-    h, w = level.shape[:2]
-    x, y = u * w - 0.5, v * h - 0.5
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
-    c0, c1 = x0.astype(int) % w, (x0.astype(int) + 1) % w
-    r0, r1 = np.clip(y0.astype(int), 0, h - 1), np.clip(y0.astype(int) + 1, 0, h - 1)
-    top = level[r0, c0] * (1 - fx) + level[r0, c1] * fx
-    bottom = level[r1, c0] * (1 - fx) + level[r1, c1] * fx
-    return top * (1 - fy) + bottom * fy
-
-
 def filtered_radiance(levels: list[np.ndarray], d: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """The map as shaders/object_fragment.glsl `filtered_env` reads it: direction d (…, 3)
     filtered over solid angle omega (…); `levels` from `solid_angle_mips`. A footprint of a
     texel or more: trilinear (bilinear within a level); below it, blended towards the texel
     itself, reached at half a texel."""
     height = levels[0].shape[0]
-    u, v = direction_to_uv(d)
     max_lod = len(levels) - 1
     with np.errstate(divide="ignore"):
         lod = np.log2(np.sqrt(omega) * height / np.pi)
     lod = np.nan_to_num(lod, nan=-1.0, neginf=-1.0, posinf=float(max_lod))
-    rows = np.clip(np.floor(v * height).astype(int), 0, height - 1)
-    cols = np.clip(np.floor(u * levels[0].shape[1]).astype(int), 0, levels[0].shape[1] - 1)
-    out = levels[0][rows, cols].astype(float)
+    out = levels[0][texel_of(d, height, levels[0].shape[1])].astype(float)
     sub = (lod > -1.0) & (lod < 0.0)  # part texel, part bilinear at level 0
     if sub.any():
         t = (lod[sub] + 1.0)[:, None]
-        out[sub] = out[sub] * (1 - t) + _bilinear(levels[0], u[sub], v[sub]) * t
+        out[sub] = out[sub] * (1 - t) + sample_latlong(levels[0], d[sub]) * t
     at_top = lod >= max_lod
     if at_top.any():
-        out[at_top] = _bilinear(levels[max_lod], u[at_top], v[at_top])
+        out[at_top] = sample_latlong(levels[max_lod], d[at_top])
     for k in range(max_lod):  # trilinear between levels k and k + 1
         sel = (lod >= k) & (lod < k + 1)
         if sel.any():
             t = (lod[sel] - k)[:, None]
-            out[sel] = _bilinear(levels[k], u[sel], v[sel]) * (1 - t) + _bilinear(levels[k + 1], u[sel], v[sel]) * t
+            out[sel] = sample_latlong(levels[k], d[sel]) * (1 - t) + sample_latlong(levels[k + 1], d[sel]) * t
     return out
 
 
@@ -172,6 +157,12 @@ def _f_cos(source, frames, wi: np.ndarray) -> np.ndarray:
     return np.where(wi[..., 2:] > 0, f * wi[..., 2:], 0.0)
 
 
+def _to_local(frames, world: np.ndarray) -> np.ndarray:
+    """World directions (m, 3), shared by every pixel, in each pilot pixel's frame (pixels, m, 3)."""
+    n, t, b = frames
+    return np.stack([np.einsum("jc,pc->pj", world, axis) for axis in (t, b, n)], axis=-1)
+
+
 def _to_world(frames, wi: np.ndarray) -> np.ndarray:
     n, t, b = frames
     return wi[..., :1] * t[:, None] + wi[..., 1:2] * b[:, None] + wi[..., 2:] * n[:, None]
@@ -199,11 +190,10 @@ def mis_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int) -> 
     from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set
 
     data, fractions, env_fraction = mis_sample_set(lobe_shares(proxy), count)
-    n, t, b = frames
     from_map = data[:, 2] < 0
     wi = _lobe_directions(proxy, frames, data)
     drawn = dist.sample(data[from_map, :2].astype(float))  # world directions, shared by every pixel
-    wi[:, from_map] = np.stack([np.einsum("jc,pc->pj", drawn, axis) for axis in (t, b, n)], axis=-1)
+    wi[:, from_map] = _to_local(frames, drawn)
     world = _to_world(frames, wi)
     p_map = env_fraction * dist.pdf(world)
     p_lobes = (1.0 - env_fraction) * mixture_pdf(proxy, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
@@ -217,20 +207,17 @@ def mis_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int) -> 
     return value.sum(axis=1) / len(data)
 
 
-def converged_pixels(source, proxy, env: EnvironmentMap, frames, count: int = TRUTH_SAMPLES) -> np.ndarray:
+def converged_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int = TRUTH_SAMPLES) -> np.ndarray:
     """The pilot pixels' RGB values (pixels, 3) by a large estimate against the map texel by
     texel: half the samples from the lobes, half from the map's luminance, each weighted by
     the mixture of both densities (robust to a small sun under a broad lobe, and to a sharp
-    lobe under a broad map)."""
-    from brdflab.lighting.env_sampling import environment_distribution
+    lobe under a broad map). `dist`: the map's luminance distribution."""
     from brdflab.lighting.sampling_sets import hammersley, lobe_shares, sample_set
 
-    n, t, b = frames
     half = count // 2
     data, fractions = sample_set(lobe_shares(proxy), half)
-    dist = environment_distribution(env)
     drawn = dist.sample(hammersley(half))  # world directions, shared by every pixel
-    from_map = np.stack([np.einsum("jc,pc->pj", drawn, axis) for axis in (t, b, n)], axis=-1)
+    from_map = _to_local(frames, drawn)
     wi = np.concatenate([_lobe_directions(proxy, frames, data), from_map], axis=1)
     world = _to_world(frames, wi)
     pdf_lobes = mixture_pdf(proxy, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
@@ -247,6 +234,7 @@ class ViewPilot:
 
     pixels: PilotPixels
     truth: np.ndarray  # (pixels, 3) RGB
+    dist: object  # the map's luminance distribution (env_sampling.EnvironmentDistribution), built once
 
     def error(self, values: np.ndarray) -> float:
         """Relative RMSE (RGB, as the reference view's error is measured) over the view."""
@@ -258,17 +246,17 @@ class ViewPilot:
 def view_pilot(source, proxy, env: EnvironmentMap, pixels: PilotPixels | None = None) -> ViewPilot:
     """The pilot pixels (`fis_pixels_of` unless given) with their `converged_pixels`, whose
     own small error is carried into every prediction made against them."""
+    from brdflab.lighting.env_sampling import environment_distribution
+
     pixels = pixels or fis_pixels_of(env)
-    return ViewPilot(pixels, converged_pixels(source, proxy, env, pixels.frames))
+    dist = environment_distribution(env)
+    return ViewPilot(pixels, converged_pixels(source, proxy, env, dist, pixels.frames), dist)
 
 
 def mis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None) -> dict[int, float]:
     """Per sample count N: the MIS mode's predicted relative RMSE over the view."""
-    from brdflab.lighting.env_sampling import environment_distribution
-
     pilot = pilot or view_pilot(source, proxy, env)
-    dist = environment_distribution(env)
-    return {count: pilot.error(mis_pixels(source, proxy, env, dist, pilot.pixels.frames, count)) for count in counts}
+    return {count: pilot.error(mis_pixels(source, proxy, env, pilot.dist, pilot.pixels.frames, count)) for count in counts}
 
 
 def fis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None) -> dict[int, float]:
