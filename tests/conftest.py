@@ -46,22 +46,3 @@ def quick_study(tmp_path_factory):
     assert run.returncode == 0, run.stderr[-2000:]
     out = work / "study"
     return out, json.loads(run.stdout), json.loads((out / "study.json").read_text())
-
-
-def pytest_configure(config):
-    try:
-        from brdflab.gui.gl_views import set_default_surface_format
-    except ImportError:
-        return
-    set_default_surface_format()  # must precede the QApplication that pytest-qt creates
-
-
-def pytest_collection_modifyitems(config, items):
-    """Run the Qt window tests first: once a headless EGL context (the render tests') is
-    current on the main thread, Mesa cannot make Qt's GLX contexts current on it. The
-    application itself never mixes the two in one process."""
-    def is_window_test(item) -> bool:
-        name = item.fspath.basename
-        return name.startswith("test_gui") or name.endswith("_gui.py")
-
-    items.sort(key=lambda item: 0 if is_window_test(item) else 1)

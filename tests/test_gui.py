@@ -1,5 +1,6 @@
 """The desktop application in a real window (Xvfb in CI), driven as a person would."""
 
+import gc
 import os
 
 import numpy as np
@@ -15,6 +16,7 @@ pytestmark = pytest.mark.skipif(
 def window(qtbot, tmp_path):
     from PySide6.QtCore import QSettings
 
+    from brdflab.gui.app import freeze_startup_objects
     from brdflab.gui.main_window import MainWindow
 
     w = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat))
@@ -23,7 +25,9 @@ def window(qtbot, tmp_path):
     w.show()
     qtbot.waitExposed(w)
     qtbot.waitUntil(lambda: w.object_view.ctx is not None and w.lobe_view.ctx is not None, timeout=10000)
-    return w
+    freeze_startup_objects()  # as the application does once its window is up
+    yield w
+    gc.unfreeze()  # this window's cycles may be collected again once it closes
 
 
 def open_and_wait(qtbot, w, opener, path):

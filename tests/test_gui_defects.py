@@ -20,13 +20,14 @@ def lit_pixels(img: np.ndarray) -> int:
 
 
 def test_moving_the_lobe_viewer_to_another_window_keeps_the_lobe_and_survives_edits(window, qtbot):
-    """A view moved to another window (what floating a dock did) gets a new GL context from
-    Qt: that once emptied the viewer and crashed the next edit."""
+    """A view moved to another window (what floating a dock did) once got a new GL context
+    from Qt, which emptied the viewer and crashed the next edit. The views now own their
+    context for life: moving keeps it, and everything in it."""
     from PySide6.QtWidgets import QWidget
 
     view = window.lobe_view
     qtbot.waitUntil(lambda: lit_pixels(lobe_image(window)) > 2000, timeout=10000)
-    inits = view.gl_inits
+    inits, ctx = view.gl_inits, view.ctx
     own_window = QWidget()
     qtbot.addWidget(own_window)
     view.setParent(own_window)
@@ -34,8 +35,8 @@ def test_moving_the_lobe_viewer_to_another_window_keeps_the_lobe_and_survives_ed
     view.resize(700, 600)
     own_window.show()
     view.show()
-    qtbot.waitUntil(lambda: view.gl_inits > inits and view.ctx is not None, timeout=10000)
     qtbot.wait(300)
+    assert view.gl_inits == inits and view.ctx is ctx
     layer = view.viewer._layers[0]
     assert layer is not None and layer.source is window.workspace.analytic  # the lobe survives
     for value in (30.0, 60.0, 90.0):  # edits after the re-parenting must not crash

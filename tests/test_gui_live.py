@@ -14,9 +14,12 @@ pytestmark = pytest.mark.skipif(
 )
 
 
+BUDGET_S = 0.050  # the issue's budget for one block of the GUI thread
+
+
 class GapProbe:
-    """A 10 ms timer on the GUI thread; the longest gap between its ticks is the longest
-    time the event loop was blocked."""
+    """A 10 ms timer on the GUI thread; the longest gap between its ticks (from the moment it
+    starts: a block right after it counts) is the longest time the event loop was blocked."""
 
     def __init__(self):
         from PySide6.QtCore import QTimer
@@ -34,7 +37,18 @@ class GapProbe:
 
     def __enter__(self):
         self.timer.start()
+        self._last = time.perf_counter()
         return self
+
+    def assert_within_budget(self, what: str) -> None:
+        """At most 1 % of the gaps over the budget (a shared 2-core machine's scheduler may
+        hold any thread that long), and none over ten times it."""
+        gaps = sorted(self.gaps)
+        p99 = gaps[int(0.99 * len(gaps))]
+        print(f"GUI thread gaps {what}: {len(gaps)} ticks, median {1e3 * gaps[len(gaps) // 2]:.1f} ms, "
+              f"p99 {1e3 * p99:.1f} ms, max {1e3 * gaps[-1]:.1f} ms")
+        assert p99 < BUDGET_S, f"1 % of the GUI thread's blocks {what} took over {1e3 * p99:.0f} ms"
+        assert gaps[-1] < 10 * BUDGET_S, f"the GUI thread was blocked {what} for {1e3 * gaps[-1]:.0f} ms"
 
     def __exit__(self, *exc):
         self.timer.stop()
@@ -65,16 +79,29 @@ def test_gui_thread_stays_responsive_while_editing(window, qtbot):
             qtbot.wait(30)
         qtbot.waitUntil(lambda: not window.editor._energy_job.busy, timeout=60000)
         qtbot.wait(600)  # plots and text catch up
-    gaps = sorted(probe.gaps)
-    print(f"GUI thread gaps: median {1e3 * gaps[len(gaps) // 2]:.1f} ms, "
-          f"p99 {1e3 * gaps[int(0.99 * len(gaps))]:.1f} ms, max {1e3 * gaps[-1]:.1f} ms")
     assert window.workspace.analytic.lobes[k].params["ax"] == pytest.approx(0.34)
     assert "Energy" in window.editor.energy.text()
     # Before the energy check and the plots moved to worker processes, this scenario blocked
-    # the GUI thread for 8.7 s at once (median gap 2.7 s). The issue's budget is 50 ms; on
-    # llvmpipe the GL views' composition still costs more, so this guards the regression
-    # with a bound a loaded 2-core machine keeps (see the closing note for measured gaps).
-    assert gaps[-1] < 2.0, f"the GUI thread was blocked for {1e3 * gaps[-1]:.0f} ms"
+    # the GUI thread for 8.7 s at once (median gap 2.7 s); with the views as QOpenGLWidgets
+    # (GL composition of the whole window per frame, the GUI thread waiting for each
+    # refinement step) the median gap was 64 ms, the longest 134 ms.
+    probe.assert_within_budget("while editing")
+
+
+def test_gui_thread_stays_responsive_while_refining(window, qtbot):
+    """The object view's steps are drawn while the GUI thread goes on (fenced, not waited for)."""
+    view = window.object_view
+    window.editor.lobe_added.emit("Ward")
+    window.object_controls.mode.setCurrentText("fis")
+    view.settings.samples = 100_000  # refines throughout
+    view.restart()
+    qtbot.waitUntil(lambda: view.samples_done >= 1, timeout=30000)
+    qtbot.wait(300)
+    before = view.samples_done
+    with GapProbe() as probe:
+        qtbot.wait(3000)
+    assert view.samples_done > before + 10  # it did refine meanwhile
+    probe.assert_within_budget("while refining")
 
 
 def test_gui_thread_stays_responsive_while_fitting(window, qtbot, tmp_path):
@@ -101,12 +128,11 @@ def test_gui_thread_stays_responsive_while_fitting(window, qtbot, tmp_path):
         assert window.fitting.status.text().startswith("stopping")  # Stop is answered at once
         qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
         stop_s = time.perf_counter() - stopped
-    gaps = sorted(probe.gaps)
-    print(f"GUI thread gaps while fitting: median {1e3 * gaps[len(gaps) // 2]:.1f} ms, "
-          f"max {1e3 * gaps[-1]:.1f} ms; Stop answered in {stop_s:.2f} s")
+    print(f"Stop answered in {stop_s:.2f} s")
     assert len(window.workspace.document.fittings) == 1  # stopped: the best so far is kept
-    assert len(gaps) > 20  # the event loop kept turning (a GIL-bound thread allowed 2–4 turns)
-    assert gaps[-1] < 2.0, f"the GUI thread was blocked for {1e3 * gaps[-1]:.0f} ms"
+    assert len(probe.gaps) > 20  # the event loop kept turning (a GIL-bound thread allowed 2–4 turns)
+    # starting the fit pickled the measured table into the worker's pipe: 0.45 s at once
+    probe.assert_within_budget("while fitting")
     # the fit stopped where it was (its scoring on every sample takes ~1.7 s on a quiet machine,
     # far longer under load: the time is printed, not asserted)
     assert window.fitting.status.text().endswith("(cancelled)"), window.fitting.status.text()

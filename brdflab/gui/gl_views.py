@@ -1,4 +1,12 @@
-"""OpenGL views inside Qt: the renderers of brdflab.render drawing into QOpenGLWidgets."""
+"""OpenGL views inside Qt: the renderers of brdflab.render drawing offscreen, shown as images.
+
+Why not QOpenGLWidget: a window that holds one is composed by GL on every repaint of any part
+of it (25–60 ms per frame on software GL, measured with the 1600 × 1000 main window, the GUI
+thread blocked meanwhile), and moving one to another window (floating a dock) destroys its
+context and every object in it. Here each view owns a standalone context for its lifetime,
+draws into a framebuffer of its own, and shows the image read back (1–3 ms); the window stays
+a plain raster window.
+"""
 
 from __future__ import annotations
 
@@ -7,21 +15,16 @@ import time
 import moderngl
 import numpy as np
 from PySide6.QtCore import QPointF, Qt, QTimer, Signal
-from PySide6.QtGui import QOpenGLContext, QSurfaceFormat
-from PySide6.QtOpenGLWidgets import QOpenGLWidget
+from PySide6.QtGui import QColor, QImage, QPainter
+from PySide6.QtWidgets import QWidget
 
 from brdflab.errors import BRDFLabError
+from brdflab.render.context import create_context
+from brdflab.render.fence import Fence
 from brdflab.render.lobe_view import LobeViewer
 from brdflab.render.object_view import SAMPLED_MODES, Display, ObjectRenderer, RenderSettings, negative_pixels
 
-
-def set_default_surface_format() -> None:
-    """OpenGL 3.3 core with depth, for every QOpenGLWidget (call before QApplication)."""
-    fmt = QSurfaceFormat()
-    fmt.setVersion(3, 3)
-    fmt.setProfile(QSurfaceFormat.CoreProfile)
-    fmt.setDepthBufferSize(24)
-    QSurfaceFormat.setDefaultFormat(fmt)
+BACKGROUND = (0.12, 0.12, 0.14)
 
 
 def clamped_fraction(rgba_bytes: bytes) -> float:
@@ -30,57 +33,151 @@ def clamped_fraction(rgba_bytes: bytes) -> float:
     return clamped / covered if covered else 0.0
 
 
-class _GLView(QOpenGLWidget):
-    """Shared plumbing: a moderngl context on the widget's own GL context, orbit by drag."""
+class _Queue:
+    """Mesa's llvmpipe rasterizes the draws of every context in one queue, and reading
+    anything back waits for all of it: a lobe-view frame read while an object-view step is
+    queued waited for that step (40–50 ms, measured). So one view at a time has GL work in
+    flight: it holds the turn from issuing its draws until it has read them back, and frames
+    waiting to be drawn go before the object view's next refinement step."""
+
+    def __init__(self) -> None:
+        self.holder = None  # the _ContextOwner of the view whose work is in flight
+        self.waiting: set = set()  # views with a frame to draw
+
+    def take(self, owner) -> bool:
+        if self.holder is None or self.holder is owner:
+            self.holder = owner
+            self.waiting.discard(owner)
+            return True
+        self.waiting.add(owner)
+        return False
+
+    def give_back(self, owner) -> None:
+        if self.holder is owner:
+            self.holder = None
+
+    def others_waiting(self, owner) -> bool:
+        return bool(self.waiting - {owner})
+
+
+GL_QUEUE = _Queue()
+
+
+class _ContextOwner:
+    """Releases a view's context (its GL objects go with it) and its turn when Qt destroys it."""
+
+    def __init__(self) -> None:
+        self.ctx: moderngl.Context | None = None
+
+    def __call__(self, *_) -> None:
+        GL_QUEUE.give_back(self)
+        GL_QUEUE.waiting.discard(self)
+        if self.ctx is not None:
+            self.ctx.release()
+            self.ctx = None
+
+
+class _GLView(QWidget):
+    """Shared plumbing: a moderngl context of the view's own, an offscreen framebuffer of the
+    view's size that `paintGL` draws into, the image shown, orbit by drag. The API follows
+    QOpenGLWidget's (initialise on first show, `update`, `makeCurrent`, `grabFramebuffer`)."""
 
     failed = Signal(str)
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
         self.ctx: moderngl.Context | None = None
+        self._current = 0  # makeCurrent nesting
+        self._target: tuple | None = None  # (framebuffer, colour, depth, size) paintGL draws into
+        self._frame: QImage | None = None  # the last image drawn: what the view shows
+        self._dirty = True  # the frame is out of date
+        self._frame_fence: Fence | None = None  # a frame drawn, not read back yet
+        self._poll = QTimer(self, interval=4)
+        self._poll.timeout.connect(self._advance_frame)
+        self._tried = False
         self._last: QPointF | None = None
         self._pending: list = []
-        self.gl_inits = 0  # Qt re-runs initializeGL with a new context when the widget moves window
+        self.gl_inits = 0  # contexts made: one per view (re-parenting keeps it)
+        self._owner = _ContextOwner()
+        self.destroyed.connect(self._owner)
         self.setMinimumSize(200, 160)
+        self.setAttribute(Qt.WA_OpaquePaintEvent)
 
-    def initializeGL(self) -> None:
-        self.gl_inits += 1
-        self.context().aboutToBeDestroyed.connect(self._context_lost, Qt.DirectConnection)
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        if not self._tried:
+            self._initialize()
+
+    def hideEvent(self, event) -> None:
+        """A hidden view may not be polled: finish its work and give the turn back."""
+        if self.ctx is not None and GL_QUEUE.holder is self._owner:
+            with self.current():
+                self.ctx.finish()
+                self.drop_flight()
+        GL_QUEUE.give_back(self._owner)
+        GL_QUEUE.waiting.discard(self._owner)
+        super().hideEvent(event)
+
+    def drop_flight(self) -> None:
+        """Forget work in flight that has finished unseen (context current)."""
+        self._frame_fence, self._dirty = None, True
+
+    def _initialize(self) -> None:
+        self._tried = True
         try:
-            self.ctx = moderngl.create_context()
-            self.setup()
+            self.ctx = self._owner.ctx = create_context()
+            self.gl_inits += 1
+            with self.current():
+                self.setup()
         except Exception as e:  # no usable OpenGL: say so instead of crashing
             self.ctx = None
             self.failed.emit(f"OpenGL is not available for this view: {str(e).splitlines()[0] if str(e) else e}")
             return
         pending, self._pending = self._pending, []
         for fn in pending:
-            fn()
+            self.when_ready(fn)
+        self.update()
 
-    def _context_lost(self) -> None:
-        """Qt is about to destroy the GL context (re-parenting, floating a dock): every GL
-        object dies with it. The next initializeGL rebuilds them from the views' state."""
-        self.ctx = None
-        self.context_lost()
+    def makeCurrent(self) -> None:
+        if self._current == 0:
+            self.ctx.__enter__()
+        self._current += 1
 
-    def context_lost(self) -> None:
-        """Drop references to GL objects of the dying context (never release them)."""
+    def doneCurrent(self) -> None:
+        self._current -= 1
+        if self._current == 0:
+            self.ctx.__exit__(None, None, None)
+
+    def current(self):
+        """`with view.current():` the view's context is current inside."""
+        view = self
+
+        class _Current:
+            def __enter__(self):
+                view.makeCurrent()
+
+            def __exit__(self, *exc):
+                view.doneCurrent()
+
+        return _Current()
 
     def when_ready(self, fn) -> None:
-        """Run fn now if GL is initialised, else right after initialisation. Inside
-        initializeGL/paintGL the context is already current and must stay so."""
+        """Run fn with the context current: now if the view has one, else once it has."""
         if self.ctx is None:
             self._pending.append(fn)
             return
-        if QOpenGLContext.currentContext() is self.context():
+        with self.current():
             fn()
-        else:
-            self.makeCurrent()
-            try:
-                fn()
-            finally:
-                self.doneCurrent()
         self.update()
+
+    def update(self, *args) -> None:
+        """The image is out of date: draw it again. The draws run while the GUI thread goes
+        on; the image shown changes once they are done (a poll reads it back)."""
+        self._dirty = True
+        if self.ctx is None:
+            super().update(*args)
+        elif not self._poll.isActive():
+            self._poll.start()
 
     def setup(self) -> None:
         raise NotImplementedError
@@ -89,7 +186,95 @@ class _GLView(QOpenGLWidget):
         raise NotImplementedError
 
     def framebuffer(self) -> moderngl.Framebuffer:
-        return self.ctx.detect_framebuffer(self.defaultFramebufferObject())
+        """The view's offscreen framebuffer (8-bit RGBA, depth), at its pixel size (context current)."""
+        size = self.pixel_size()
+        if self._target is None or self._target[3] != size:
+            if self._target is not None:
+                for obj in self._target[:3]:
+                    obj.release()
+            colour, depth = self.ctx.texture(size, 4), self.ctx.depth_renderbuffer(size)
+            self._target = (self.ctx.framebuffer([colour], depth), colour, depth, size)
+        return self._target[0]
+
+    def can_draw(self) -> bool:
+        """Whether paintGL can be issued now (not before other work in flight has landed)."""
+        return True
+
+    def _advance_frame(self) -> None:
+        """Read back a frame whose draws are done; issue the next if the image is out of date."""
+        if self.ctx is None:
+            self._poll.stop()
+            return
+        with self.current():
+            if self._frame_fence is not None:
+                if not self._frame_fence.done():
+                    return
+                self._read_frame()
+            if self._dirty and self.can_draw():
+                if GL_QUEUE.take(self._owner):
+                    self._issue_frame()
+            else:  # done, or waiting for whoever makes it drawable (it calls update)
+                self._poll.stop()
+
+    def _issue_frame(self) -> None:
+        """paintGL into the framebuffer, fenced (context current)."""
+        self.framebuffer().use()
+        try:
+            self.paintGL()
+        except BRDFLabError as e:
+            self.failed.emit(str(e))
+        self._frame_fence, self._dirty = Fence(self.ctx), False
+        if not self._poll.isActive():
+            self._poll.start()
+
+    def _read_frame(self) -> None:
+        """The issued frame, read back as the image shown (context current)."""
+        _, colour, _, (w, h) = self._target
+        self._frame_fence = None
+        GL_QUEUE.give_back(self._owner)
+        rows = np.frombuffer(colour.read(alignment=1), np.uint8).reshape(h, w, 4)[::-1]
+        frame = QImage(np.ascontiguousarray(rows).tobytes(), w, h, 4 * w, QImage.Format_RGBX8888).copy()
+        frame.setDevicePixelRatio(self.devicePixelRatioF())
+        self._frame = frame
+        super().update()  # repaint: only the image is drawn
+
+    def paintEvent(self, event) -> None:
+        painter = QPainter(self)
+        if self._frame is None:
+            painter.fillRect(self.rect(), QColor.fromRgbF(*BACKGROUND))
+        else:  # scaled while a resize waits for its first image
+            painter.drawImage(self.rect(), self._frame)
+        painter.end()
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        if self.ctx is not None:
+            with self.current():
+                self.resizeGL(*self.pixel_size())
+        self.update()
+
+    def resizeGL(self, w: int, h: int) -> None:
+        """The view's size changed (context current)."""
+
+    def settle(self) -> None:
+        """Wait for work in flight (context current)."""
+
+    def grabFramebuffer(self) -> QImage:
+        """The image the view shows, drawn now if it is out of date (this waits for the draws)."""
+        if self.ctx is not None:
+            with self.current():
+                self.settle()
+                if self._frame_fence is None and self._dirty and self.can_draw():
+                    self._issue_frame()
+                if self._frame_fence is not None:
+                    self._frame_fence.wait()
+                    self._read_frame()
+        if self._frame is not None:
+            return QImage(self._frame)
+        w, h = self.pixel_size()
+        blank = QImage(w, h, QImage.Format_RGBX8888)
+        blank.fill(QColor.fromRgbF(*BACKGROUND))
+        return blank
 
     def pixel_size(self) -> tuple[int, int]:
         r = self.devicePixelRatioF()
@@ -128,26 +313,16 @@ class LobeView(_GLView):
     incident_changed = Signal(float, float)
 
     def setup(self) -> None:
-        old = getattr(self, "viewer", None)
         self.viewer = LobeViewer(self.ctx)
-        if old is not None:  # a new context: the same lobes, settings and camera
-            self.viewer.adopt(old)
 
     def camera(self):
         return self.viewer.camera
 
     def paintGL(self) -> None:
-        if self.ctx is None:
-            return
         w, h = self.pixel_size()
-        fbo = self.framebuffer()
-        fbo.use()
         self.ctx.viewport = (0, 0, w, h)
-        fbo.clear(0.12, 0.12, 0.14, 1.0, depth=1.0)
-        try:
-            self.viewer.draw(w, h)
-        except BRDFLabError as e:
-            self.failed.emit(str(e))
+        self.framebuffer().clear(*BACKGROUND, 1.0, depth=1.0)
+        self.viewer.draw(w, h)
 
     def drag(self, dx, dy, buttons, modifiers) -> None:
         if buttons & Qt.RightButton or modifiers & Qt.ShiftModifier:
@@ -160,9 +335,12 @@ class LobeView(_GLView):
 
 
 class ObjectView(_GLView):
-    """The object view; refines progressively while the view is still."""
+    """The object view; refines progressively while the view is still. A step's draws run
+    while the GUI thread goes on (a fence says when they are done); the image shown is the
+    last one read back, kept on screen until a restarted image has its first samples."""
 
-    STEP_BUDGET_S = 0.025  # one refinement step may hold the GUI thread this long
+    STEP_S = 0.05  # a step's GL time: frequent enough images, a new edit waits at most this
+    POLL_MS = 4  # how often the GUI thread asks whether a step is done
     busy = Signal(str)  # a long preparation started ("" when it is over)
     ringing = Signal(float)  # SH mode, image complete: the fraction of object pixels clamped at 0
     table_shown = Signal(str)  # SH mode: the table drawn with (Auto: its pick and estimated error)
@@ -176,7 +354,8 @@ class ObjectView(_GLView):
         self.gamma = 0.0  # 0: sRGB
         self.reinhard = False
         self._progressive = None
-        self._step_samples = 1  # adapted so that a step costs about STEP_BUDGET_S
+        self._step_samples = 1  # adapted so that a step takes about STEP_S
+        self._flight: tuple | None = None  # (fence, image, samples, began) of the step being drawn
         self.blank = False  # nothing to show (a material without lobes): draw the background
         # comparing: a second renderer with the same scene and camera shows `compare_source`
         self.compare = "off"  # or "split" (original | fit) or "difference"
@@ -185,24 +364,14 @@ class ObjectView(_GLView):
         self._renderer_b = None
         self._scene_b: tuple | None = None  # the scene _renderer_b was built for
         self._progressive_b = None
-        self._stale = None  # the last complete-enough image, shown while a new one starts
         self._table_note: str | None = None  # what table_shown last said
         self._timer = QTimer(self)
-        self._timer.setInterval(0)
+        self._timer.setInterval(self.POLL_MS)
         self._timer.timeout.connect(self._refine)
 
     def setup(self) -> None:
-        old = getattr(self, "renderer", None)
         self.renderer = ObjectRenderer(self.ctx)
         self.display = Display(self.ctx)
-        if old is not None:  # a new context: the same scene, rebuilt on it
-            self.renderer.adopt(old)
-            self._timer.start()
-
-    def context_lost(self) -> None:
-        self._progressive = self._progressive_b = self._renderer_b = self._stale = None
-        self._scene_b = None
-        self._timer.stop()
 
     def shutdown(self) -> None:
         """The window is closing: no more refinement, and no SH table is built any further."""
@@ -213,9 +382,13 @@ class ObjectView(_GLView):
         self._pool, self._build_job = None, None
 
     def hideEvent(self, event) -> None:
-        """A hidden (or closing) view refines nothing: its context may be on its way out."""
+        """A hidden (or closing) view refines nothing."""
         self._timer.stop()
         super().hideEvent(event)
+
+    def drop_flight(self) -> None:
+        super().drop_flight()
+        self._flight = None
 
     def showEvent(self, event) -> None:
         super().showEvent(event)
@@ -225,17 +398,12 @@ class ObjectView(_GLView):
         return self.renderer.camera
 
     def restart(self) -> None:
-        """Something changed: throw the accumulated samples away. The last image that had
-        samples stays on screen until the new one has its first (no grey flash per edit)."""
-        old = [self._progressive_b]
-        if self._progressive is not None and self._progressive.samples > 0 and not self.blank:
-            old.append(self._stale)
-            self._stale = self._progressive
-        else:
-            old.append(self._progressive)
+        """Something changed: throw the accumulated samples away. The image shown stays on
+        screen until the new one has its first samples (no grey flash per edit)."""
+        old = (self._progressive, self._progressive_b)
+        self._progressive = self._progressive_b = None
         if self.ctx is not None:
             self.when_ready(lambda: self._release(*old))
-        self._progressive = self._progressive_b = None
         self._timer.start()
         self.update()
 
@@ -245,10 +413,6 @@ class ObjectView(_GLView):
         for image in images:
             if image is not None:
                 image.release()
-
-    def _drop_stale(self) -> None:  # context current
-        self._release(self._stale)
-        self._stale = None
 
     @property
     def comparing(self) -> bool:
@@ -278,7 +442,7 @@ class ObjectView(_GLView):
     def _prepared_elsewhere(self) -> bool:
         """SH tables and prefiltered stacks take seconds of NumPy: build what the current mode
         needs in the worker process (one job at a time); True while it is not ready."""
-        from brdflab.gui.background import worker_pool
+        from brdflab.gui.background import submit, worker_pool
 
         if self._build_job is not None and self._build_job[0].done():
             (job, remember), self._build_job = self._build_job, None
@@ -291,9 +455,10 @@ class ObjectView(_GLView):
             build, args, remember, message = need
             if self._pool is None:
                 self._pool = worker_pool()
-            self._build_job = (self._pool.submit(build, *args), remember)
+            self._build_job = (submit(self._pool, build, *args), remember)
             self.busy.emit(message)
-        QTimer.singleShot(100, self._refine)
+        self._timer.stop()  # ask again in 100 ms, not every poll
+        QTimer.singleShot(100, self._timer, self._timer.start)
         return True
 
     def _still_needed(self):
@@ -340,70 +505,94 @@ class ObjectView(_GLView):
             self.table_shown.emit(note)
 
     def _refine(self) -> None:
-        """Render more samples, outside paint events (Qt's paint-time GL state is not
-        moderngl's), then ask for a repaint that only displays the image."""
+        """Poll the step in flight; once it is done, show it and issue the next. Outside
+        paint events, and never waiting for the draws: the GUI thread only issues them."""
         if self.ctx is None or self.blank or not self.isVisible() or getattr(self.renderer, "material", None) is None:
-            self._timer.stop()  # nothing to refine: a 0 ms timer would spin the GUI thread
+            self._timer.stop()  # nothing to refine: the poll would spin the GUI thread
             return
-        w, h = self.pixel_size()
-        self.makeCurrent()
-        try:
-            if self._prepared_elsewhere():
-                return
-            if self.settings.mode == "sh":
-                self._show_table()
-            if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
-                self._release(self._progressive, self._progressive_b)
-                settings = RenderSettings(**{**self.settings.__dict__, "width": w, "height": h})
-                self._progressive = self.renderer.start_progressive(settings)
-                self._progressive_b = self._second_renderer().start_progressive(settings) if self.comparing else None
-            p = self._progressive
-            target = self.settings.samples if self.settings.mode in SAMPLED_MODES else 1
-            if p.samples < target:
-                n = min(self._step_samples, target - p.samples)
-                began = time.perf_counter()
-                for image in (p, self._progressive_b):
-                    if image is not None:
-                        image.step(n)
-                self.ctx.finish()  # llvmpipe renders lazily: time the real work
-                spent = time.perf_counter() - began
-                self._step_samples = int(max(1, min(256, n * self.STEP_BUDGET_S / max(spent, 1e-4))))
-                self._timer.start()
-                if self.settings.mode == "sh" and p.samples >= target:
-                    self.ringing.emit(clamped_fraction(p.texture.read()))
-            else:
+        with self.current():
+            try:
+                if self._flight is not None and not self._landed():
+                    return
+                if self._frame_fence is not None:  # read it back first: GL would make that wait for the step
+                    return
+                if not self._prepared_elsewhere():
+                    self._issue_step()
+            except BRDFLabError as e:
                 self._timer.stop()
-        except BRDFLabError as e:
+                self.failed.emit(str(e))
+
+    def _landed(self) -> bool:
+        """Whether the step in flight is done; if so, show it (context current)."""
+        fence, image, n, began = self._flight
+        if not fence.done():
+            return False
+        self._flight = None
+        GL_QUEUE.give_back(self._owner)
+        spent = time.perf_counter() - began
+        self._step_samples = int(max(1, min(256, n * self.STEP_S / max(spent, 1e-4))))
+        if image is self._progressive:  # not restarted meanwhile: show it
+            self._dirty = True
+            self._advance_frame()
+            target = self.settings.samples if self.settings.mode in SAMPLED_MODES else 1
+            if self.settings.mode == "sh" and image.samples >= target:
+                self.ringing.emit(clamped_fraction(image.texture.read()))
+        return True
+
+    def _issue_step(self) -> None:
+        """Issue the next step's draws, or stop when the image is complete (context current)."""
+        if self.settings.mode == "sh":
+            self._show_table()
+        w, h = self.pixel_size()
+        if self._progressive is None or (self._progressive.settings.width, self._progressive.settings.height) != (w, h):
+            self._release(self._progressive, self._progressive_b)
+            settings = RenderSettings(**{**self.settings.__dict__, "width": w, "height": h})
+            self._progressive = self.renderer.start_progressive(settings)
+            self._progressive_b = self._second_renderer().start_progressive(settings) if self.comparing else None
+        p = self._progressive
+        target = self.settings.samples if self.settings.mode in SAMPLED_MODES else 1
+        if p.samples >= target:
             self._timer.stop()
-            self.failed.emit(str(e))
-        finally:
-            self.doneCurrent()
-        self.update()
+            return
+        if GL_QUEUE.others_waiting(self._owner) or not GL_QUEUE.take(self._owner):
+            return  # the timer asks again
+        n = min(self._step_samples, target - p.samples) if p.samples else 1  # a first step also lays depth
+        began = time.perf_counter()
+        for image in (p, self._progressive_b):
+            if image is not None:
+                image.step(n)
+        self._flight = (Fence(self.ctx), p, n, began)
+
+    def can_draw(self) -> bool:
+        """Drawn images only: samples that have landed, or the background of a blank view."""
+        p = self._progressive
+        return self.blank or (self._flight is None and p is not None and p.samples > 0)
+
+    def settle(self) -> None:
+        if self._flight is not None:
+            self._flight[0].wait()
+            self._landed()
+
+    def paintEvent(self, event) -> None:
+        if not self.blank and self._progressive is None and not self._timer.isActive():
+            self._timer.start()
+        super().paintEvent(event)
 
     def paintGL(self) -> None:
-        if self.ctx is None:
-            return
         fbo = self.framebuffer()
-        fbo.use()
         w, h = self.pixel_size()
         self.ctx.viewport = (0, 0, w, h)
         image = self._progressive
-        if image is None or image.samples == 0:
-            image = self._stale if self._stale is not None and (self._stale.settings.width, self._stale.settings.height) == (w, h) else None
-        else:
-            self._drop_stale()
-        if self.blank or image is None:
-            fbo.clear(0.12, 0.12, 0.14, 1.0)
-            if not self.blank and not self._timer.isActive():
-                self._timer.start()
+        if self.blank or image is None or image.samples == 0:
+            fbo.clear(*BACKGROUND, 1.0)
             return
         lit_by_map = image.settings.mode in ("fis", "sh", "prefiltered", "mis")
-        other = self._progressive_b if self.comparing and image is self._progressive and self._progressive_b is not None else None
+        other = self._progressive_b if self.comparing and self._progressive_b is not None else None
         self.display.draw(image, self.exposure, self.reinhard, gamma=self.gamma,
                           environment=self.renderer if lit_by_map else None, other=other,
                           compare=self.compare, split=self.split)
 
     def resizeGL(self, w: int, h: int) -> None:
-        self._release(self._progressive, self._progressive_b, self._stale)  # current during resizeGL
-        self._progressive = self._progressive_b = self._stale = None
+        self._release(self._progressive, self._progressive_b)
+        self._progressive = self._progressive_b = None
         self._timer.start()

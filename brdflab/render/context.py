@@ -15,7 +15,7 @@ def create_context() -> moderngl.Context:
             ctx = moderngl.create_standalone_context(require=330, **kwargs)
             # a standalone context has no default framebuffer, and Mesa runs nothing
             # (transform feedback included) until one is bound
-            ctx.extra = {"default_fbo": ctx.simple_framebuffer((1, 1))}
+            ctx.extra = {"default_fbo": ctx.simple_framebuffer((1, 1)), "backend": kwargs.get("backend", "default")}
             ctx.extra["default_fbo"].use()
             return ctx
         except Exception as e:  # moderngl raises plain Exceptions for missing drivers

@@ -51,6 +51,7 @@ class _Layer:
     program: moderngl.Program
     texture: moderngl.Texture | None = None
     texture_wi: tuple | None = None
+    peak: tuple | None = None  # ((shape, level), largest radius): evaluating a table costs ~20 ms
     vaos: dict = field(default_factory=dict)
 
 
@@ -68,13 +69,6 @@ class LobeViewer:
         self._line_vbo = self.ctx.buffer(reserve=12 * 6 * 4)
         self._line_vao = self.ctx.vertex_array(self._lines, [(self._line_vbo, "3f 3f", "in_position", "in_color")])
 
-    def adopt(self, old: "LobeViewer") -> None:
-        """Take over what another viewer shows (its GL context is gone): settings, camera
-        and layers, rebuilt on this viewer's context."""
-        self.settings, self.camera = old.settings, old.camera
-        for index, layer in enumerate(old._layers):
-            self._set_layer(index, None if layer is None else layer.source, release_old=False)
-
     # --- sources --------------------------------------------------------------------------
     def set_original(self, source) -> None:
         self._set_layer(0, source)
@@ -82,9 +76,11 @@ class LobeViewer:
     def set_fitted(self, source) -> None:
         self._set_layer(1, source)
 
-    def _set_layer(self, index: int, source, release_old: bool = True) -> None:
+    def _set_layer(self, index: int, source) -> None:
         old = self._layers[index]
-        if old is not None and release_old:
+        if old is not None and source is old.source and not isinstance(source, AnalyticMaterial):
+            return  # the same table: its texture (a 360 × 90 evaluation, 40–100 ms) still holds
+        if old is not None:
             for vao in old.vaos.values():
                 vao.release()
             if old.texture is not None:
@@ -107,7 +103,7 @@ class LobeViewer:
         if layer is None or not isinstance(layer.source, AnalyticMaterial) or models_of(layer.source) != models_of(material):
             self._set_layer(index, material)
             return
-        layer.source = material
+        layer.source, layer.peak = material, None
         set_uniforms(layer.program, lobe_uniforms(material))
 
     def _program(self, models: tuple[str, ...], textured: bool) -> moderngl.Program:
@@ -197,12 +193,14 @@ class LobeViewer:
 
     def gain(self) -> float:
         """Scale that makes the largest lobe reach radius 1 (same transfer as the shader)."""
-        dirs = geodesic_hemisphere(min(self.settings.level, 5))[0].astype(float)
+        key = (self.settings.shape, min(self.settings.level, 5))
         peak = 0.0
         for layer in self._layers:
             if layer is not None:
-                r = lobe_radii(layer.source, self.settings.shape, dirs)
-                peak = max(peak, float(np.nanmax(r)) if r.size else 0.0)
+                if layer.peak is None or layer.peak[0] != key:
+                    r = lobe_radii(layer.source, self.settings.shape, geodesic_hemisphere(key[1])[0].astype(float))
+                    layer.peak = (key, float(np.nanmax(r)) if r.size else 0.0)
+                peak = max(peak, layer.peak[1])
         return 1.0 / peak if peak > 0 else 1.0
 
     def _eye(self) -> np.ndarray:

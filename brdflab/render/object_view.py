@@ -115,6 +115,8 @@ class ObjectRenderer:
     def set_source(self, source) -> None:
         """Any source: analytic materials directly; measured ones as a table texture,
         importance-sampled through a fitted proxy (Lambertian + Cook–Torrance)."""
+        if source is self.source and self.measured:
+            return  # the same table: uploading it again took ~45 ms of the GUI thread
         self.source = source
         self._release_sh()
         if isinstance(source, AnalyticMaterial):

@@ -1,0 +1,85 @@
+"""GL fences: has the work issued so far finished? Asked without waiting.
+
+A window that waits for the GPU (`ctx.finish()`) blocks its GUI thread for as long as the
+draw takes: on a software GL (Mesa's llvmpipe, whose rasterizer runs in threads of its own)
+a progressive step of a sampled lighting mode takes 25–60 ms. With a fence the GUI thread
+issues the draws, returns to its event loop and asks later. moderngl has no fence objects:
+on EGL (what `render.context.create_context` tries first) the core GL 3.2 entry points come
+from `eglGetProcAddress`; elsewhere `Fence` waits (`finish`), as before.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+from functools import cache
+
+import moderngl
+
+GL_SYNC_GPU_COMMANDS_COMPLETE = 0x9117
+GL_ALREADY_SIGNALED = 0x911A
+GL_CONDITION_SATISFIED = 0x911C
+
+
+@cache
+def _entry_points() -> tuple | None:
+    """(glFenceSync, glClientWaitSync, glDeleteSync, glFlush) through EGL, or None."""
+    try:
+        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+    except OSError:
+        return None
+    get = egl.eglGetProcAddress
+    get.restype, get.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+    kinds = {
+        b"glFenceSync": ctypes.CFUNCTYPE(ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint),
+        b"glClientWaitSync": ctypes.CFUNCTYPE(ctypes.c_uint, ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint64),
+        b"glDeleteSync": ctypes.CFUNCTYPE(None, ctypes.c_void_p),
+        b"glFlush": ctypes.CFUNCTYPE(None),
+    }
+    functions = []
+    for name, kind in kinds.items():
+        address = get(name)
+        if not address:
+            return None
+        functions.append(kind(address))
+    return tuple(functions)
+
+
+def fences_available(ctx: moderngl.Context) -> bool:
+    """Whether `Fence(ctx)` asks without waiting (an EGL context, made by render.context)."""
+    return (ctx.extra or {}).get("backend") == "egl" and _entry_points() is not None
+
+
+class Fence:
+    """Marks the work issued so far in `ctx` (which must be current, here and in `done`)."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self._ctx = ctx
+        self._sync = None
+        if fences_available(ctx):
+            fence_sync, _, _, flush = _entry_points()
+            self._sync = fence_sync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0)
+            flush()  # start the work now: a fence nobody flushed may never signal
+        self._done = self._sync is None and self._wait()
+
+    def _wait(self) -> bool:
+        self._ctx.finish()
+        return True
+
+    def done(self) -> bool:
+        """True once everything issued before the fence has finished (never blocks on EGL)."""
+        if self._done:
+            return True
+        _, client_wait, delete, _ = _entry_points()
+        if client_wait(self._sync, 0, 0) in (GL_ALREADY_SIGNALED, GL_CONDITION_SATISFIED):
+            delete(self._sync)
+            self._sync, self._done = None, True
+        return self._done
+
+    def wait(self) -> None:
+        """Block until done (what reading the result back would do anyway)."""
+        if not self._done:
+            if self._sync is not None:
+                _entry_points()[2](self._sync)
+                self._sync = None
+            self._done = self._wait()
