@@ -1,0 +1,65 @@
+"""Large arrays reach worker processes through shared memory (gui/background.py), and GL
+fences say when a view's draws are done without waiting (render/fence.py)."""
+
+import multiprocessing
+import pickle
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import shared_memory
+
+import numpy as np
+import pytest
+
+from brdflab.gui.background import SHARED_BYTES, Packed, submit
+
+
+def _checksum(table, small, label):
+    return float(table.sum()), small.tolist(), label, table.flags.writeable
+
+
+def test_large_arrays_travel_by_name_and_arrive_whole():
+    table = np.random.default_rng(0).random((90, 90, 180, 3))[:, ::2]  # 17 MB, not contiguous
+    small = np.arange(5)
+    packed = Packed((table, small, "brass"))
+    try:
+        assert len(packed.payload) < 4096  # the table is not in the pickle …
+        assert len(packed.segments) == 1 and packed.segments[0].size >= table.nbytes  # … but in shared memory
+        back = pickle.loads(packed.payload)
+        np.testing.assert_array_equal(back[0], table)
+        np.testing.assert_array_equal(back[1], small)
+        assert back[2] == "brass" and back[0].flags.writeable
+    finally:
+        name = packed.segments[0].name
+        packed.release()
+        packed.release()  # twice is harmless (a job's end and a window's close may both)
+    with pytest.raises(FileNotFoundError):
+        shared_memory.SharedMemory(name=name)
+
+
+def test_a_worker_process_gets_the_same_arrays():
+    table = np.linspace(0.0, 1.0, SHARED_BYTES // 8 + 1000)
+    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        total, small, label, writeable = submit(pool, _checksum, table, np.arange(3), "x").result(timeout=120)
+    assert total == pytest.approx(float(table.sum()), rel=1e-12)
+    assert small == [0, 1, 2] and label == "x" and writeable
+
+
+def test_a_fence_reports_done_once_the_draws_are_done():
+    from brdflab.errors import BRDFLabError
+    from brdflab.render.context import create_context
+    from brdflab.render.fence import Fence, fences_available
+
+    try:
+        ctx = create_context()
+    except BRDFLabError as e:
+        pytest.skip(str(e))
+    with ctx:
+        fbo = ctx.simple_framebuffer((256, 256))
+        fbo.use()
+        fbo.clear(0.25, 0.5, 0.75, 1.0)
+        fence = Fence(ctx)
+        if fences_available(ctx):
+            assert fence._sync is not None  # a real fence, asked without waiting
+        fence.wait()
+        assert fence.done()
+        assert np.frombuffer(fbo.read(), np.uint8)[:3].tolist() == [64, 128, 191]
+    ctx.release()
