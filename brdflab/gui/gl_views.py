@@ -120,6 +120,8 @@ class _GLView(QWidget):
 
     def drop_flight(self) -> None:
         """Forget work in flight that has finished unseen (context current)."""
+        if self._frame_fence is not None:
+            self._frame_fence.wait()  # done already: this frees the fence
         self._frame_fence, self._dirty = None, True
 
     def _initialize(self) -> None:
@@ -388,6 +390,8 @@ class ObjectView(_GLView):
 
     def drop_flight(self) -> None:
         super().drop_flight()
+        if self._flight is not None:
+            self._flight[0].wait()
         self._flight = None
 
     def showEvent(self, event) -> None:
