@@ -470,6 +470,8 @@ class ObjectView(_GLView):
         from functools import partial
 
         from brdflab.lighting.prefilter import build_stack, map_key, remember_stack
+        from brdflab.lighting.sh import project_environment
+        from brdflab.lighting.split_sum import material_split
         from brdflab.lighting.sh_table_auto import AutoTable, build_table
 
         r = self.renderer
@@ -478,8 +480,14 @@ class ObjectView(_GLView):
             what = "choosing and building" if isinstance(r.sh_table, AutoTable) else "building"
             return (build_table, (source, r.sh_order, r.sh_table),
                     partial(self._remember_table, source, r.sh_order, r.sh_table), f"{what} the order-{r.sh_order} SH table…")
+        if self.settings.mode == "sh" and r.environment is not None and not r.sh_light_ready():
+            return (project_environment, (r.environment, r.sh_order, r.sh_window),
+                    partial(r.remember_sh_light, r.environment, r.sh_order, r.sh_window), "projecting the map onto SH…")
         if self.settings.mode == "prefiltered" and r.environment is not None and not r.prefiltered_ready():
             return build_stack, (r.environment, map_key(r.environment)), remember_stack, "prefiltering the environment map…"
+        pref = r.prefiltered
+        if self.settings.mode == "prefiltered" and r.material is not None and not pref.splits_ready(r.material):
+            return material_split, (r.material,), partial(pref.remember_splits, pref.material_key(r.material)), ""
         return None
 
     @staticmethod

@@ -233,6 +233,10 @@ class MainWindow(QMainWindow):
         self._docks["XML"].visibilityChanged.connect(self._xml_dock_shown)
         self._plot_timer = QTimer(self, singleShot=True, interval=250)
         self._plot_timer.timeout.connect(self._refresh_plots)
+        # a running fit reaches the object view twice a second, not at every report (each
+        # restarted its image before it had more than a sample: 60–330 ms of GL per restart)
+        self._fit_view_timer = QTimer(self, singleShot=True, interval=500)
+        self._fit_view_timer.timeout.connect(self._show_fit_progress_on_object)
         self._build_menus()
         self._connect()
         self.lobe_view.when_ready(lambda: None)
@@ -970,7 +974,11 @@ class MainWindow(QMainWindow):
             self._plot_timer.start()
         self.fitting.status.setText(f"{p.stage}: iteration {p.iteration}, {self._thread.options.metric} error {p.error:.6g}")
         self._push_lobe_sources()
-        if self.object_controls.shown.currentText() != "original":
+        if not self._fit_view_timer.isActive():
+            self._fit_view_timer.start()
+
+    def _show_fit_progress_on_object(self) -> None:
+        if self._candidate is not None and self.object_controls.shown.currentText() != "original":
             self._push_object_source()
 
     def _end_fit(self) -> None:

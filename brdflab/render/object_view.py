@@ -82,9 +82,10 @@ class ObjectRenderer:
         self.sh_table: TableSetting | AutoTable = STANDARD  # the BRDF table's size and samples, or Auto
         self.source = None
         self.environment: EnvironmentMap | None = None
-        self._sh_state: tuple | None = None  # ((order, table setting), table texture, rx texture, half, light)
+        self._sh_state: tuple | None = None  # ((order, table setting), table texture, rx texture, half)
+        self._sh_light: tuple | None = None  # (map, order, window, coefficients): per map, not per material
         self.clamped_pixels = 0
-        self._prefiltered = PrefilteredLighting(ctx)
+        self.prefiltered = PrefilteredLighting(ctx)  # the prefiltered mode's textures
         self._empty_vao = ctx.vertex_array(self._program(("Lambertian",), "point", True), [])
 
     def adopt(self, old: "ObjectRenderer") -> None:
@@ -165,7 +166,7 @@ class ObjectRenderer:
         self.env_size = (env.width, env.height)
         self.environment = env
         self._release_sh()
-        self._prefiltered.release_stack()
+        self.prefiltered.release_stack()
         self._release_env_tables()
 
     # --- environment importance sampling (MIS) -------------------------------------------------
@@ -249,9 +250,26 @@ class ObjectRenderer:
             rx_data = np.concatenate(blocks + [np.zeros(1)]).astype(np.float32)
             rx = self.ctx.texture((len(rx_data), 1), 1, rx_data.tobytes(), dtype="f4")
             rx.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            light = sh.project_environment(self.environment, order, self.sh_window)
-            self._sh_state = ((order, setting), tex, rx, len(blocks[0]), light)
+            self._sh_state = ((order, setting), tex, rx, len(blocks[0]))
         return self._sh_state
+
+    def sh_light_ready(self) -> bool:
+        """Whether the map's projection at the current order and window is at hand."""
+        state = self._sh_light
+        return state is not None and state[0] is self.environment and state[1:3] == (self.sh_order, self.sh_window)
+
+    def remember_sh_light(self, env: EnvironmentMap, order: int, window: str | None, light: np.ndarray) -> None:
+        self._sh_light = (env, order, window, light)
+
+    def _sh_light_coefficients(self) -> np.ndarray:
+        """The map projected onto SH (projecting a 2k map takes about a second: the window has
+        a worker do it, see gui/gl_views.py; kept until the map, order or window changes)."""
+        from brdflab.lighting import sh
+
+        if not self.sh_light_ready():
+            self.remember_sh_light(self.environment, self.sh_order, self.sh_window,
+                                   sh.project_environment(self.environment, self.sh_order, self.sh_window))
+        return self._sh_light[3]
 
     def sh_table_ready(self) -> bool:
         """Whether the SH mode can draw without building a table first."""
@@ -263,7 +281,7 @@ class ObjectRenderer:
 
     def prefiltered_ready(self) -> bool:
         """Whether the prefiltered mode can draw without building the map's stack first."""
-        return self.environment is None or self._prefiltered.ready(self.environment)
+        return self.environment is None or self.prefiltered.ready(self.environment)
 
     def _vertex_frames(self) -> tuple[np.ndarray, np.ndarray]:
         """World → local rotation of every vertex (rows t, b, n, as the fragment shader
@@ -336,7 +354,8 @@ class ObjectRenderer:
         """World-frame lighting coefficients, with the environment's rotation applied."""
         from brdflab.lighting import sh
 
-        light = self._sh_resources(settings)[4]
+        self._sh_resources(settings)  # says what is missing first (no map)
+        light = self._sh_light_coefficients()
         if settings.env_rotation:
             # the environment turned as in the FIS mode: L'(d) = L(Ry(θ) d)
             light = sh.rotate(light, sh.axis_rotation("y", math.radians(settings.env_rotation)).T)
@@ -427,7 +446,7 @@ class ObjectRenderer:
             _set(prog, "u_env_table", 7)
             _set(prog, "u_env_fraction", float(self._env_fraction))
         if settings.mode == "sh":
-            order, table, rx, half, _ = self._sh_resources(settings)
+            order, table, rx, half = self._sh_resources(settings)
             table.use(3)
             rx.use(4)
             _set(prog, "u_sh_table", 3)
@@ -439,7 +458,7 @@ class ObjectRenderer:
                 self._vertex_light_texture(settings).use(5)
                 _set(prog, "u_sh_vertex_light", 5)
         if settings.mode == "prefiltered":
-            self._prefiltered.bind(prog, self.environment, self.material, settings.env_rotation)
+            self.prefiltered.bind(prog, self.environment, self.material, settings.env_rotation)
         if reference:
             self._empty_vao_for(prog).render(moderngl.TRIANGLES, vertices=3)
         else:

@@ -27,6 +27,7 @@ class PrefilteredLighting:
         self.ctx = ctx
         self._stack: tuple[EnvironmentMap, moderngl.TextureArray] | None = None
         self._albedo: tuple[tuple, moderngl.Texture, dict] | None = None
+        self._splits: tuple[tuple, list] | None = None  # (material key, material_split) made elsewhere
 
     def ready(self, env: EnvironmentMap) -> bool:
         """Whether `env`'s stack is uploaded or cached (drawing it builds nothing)."""
@@ -47,13 +48,25 @@ class PrefilteredLighting:
             self._stack = (env, tex)
         return self._stack[1]
 
+    @staticmethod
+    def material_key(material: AnalyticMaterial) -> tuple:
+        return tuple((l.model.name, tuple(sorted(l.params.items()))) for l in material.lobes)
+
+    def splits_ready(self, material: AnalyticMaterial) -> bool:
+        """Whether drawing `material` needs no split computed first (80–120 ms of NumPy)."""
+        key = self.material_key(material)
+        return any(held is not None and held[0] == key for held in (self._albedo, self._splits))
+
+    def remember_splits(self, key: tuple, splits: list) -> None:
+        self._splits = (key, splits)
+
     def _albedo_texture(self, material: AnalyticMaterial) -> tuple[moderngl.Texture, dict]:
         from brdflab.lighting.split_sum import material_split
 
-        key = tuple((l.model.name, tuple(sorted(l.params.items()))) for l in material.lobes)
+        key = self.material_key(material)
         if self._albedo is None or self._albedo[0] != key:
             self.release_albedo()
-            splits = material_split(material)
+            splits = self._splits[1] if self._splits is not None and self._splits[0] == key else material_split(material)
             table = np.ascontiguousarray(np.stack([s.albedo for s in splits]), np.float32)
             tex = self.ctx.texture((table.shape[1], table.shape[0]), 1, table.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # interpolated in the shader
