@@ -114,7 +114,15 @@ class Workspace:
     # --- what is shown --------------------------------------------------------------------------
     @property
     def title(self) -> str:
-        return (self.path.name if self.path else "untitled") + (" *" if self.dirty else "")
+        """The file's name; before a measured file's material is saved, the data's name."""
+        ref = self.document.material
+        if self.path:
+            name = self.path.name
+        elif isinstance(ref, MeasuredReference):
+            name = f"untitled ({Path(ref.name).name})"
+        else:
+            name = "untitled"
+        return name + (" *" if self.dirty else "")
 
     @property
     def analytic(self) -> AnalyticMaterial | None:

@@ -229,3 +229,17 @@ def test_sources_say_where_they_are_defined(merl_file, tmp_path):
     raw[-1] ^= 1
     data.write_bytes(bytes(raw))
     assert any("changed since its fits were made" in m for m in Workspace.open(tmp_path / "d.xml").messages)
+
+
+def test_a_measured_file_names_the_window_until_its_material_is_saved(tmp_path):
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+    from brdflab.sources.measured import tabulate, write_merl_binary
+    from brdflab.workspace import Workspace
+
+    material = AnalyticMaterial("t", "Linear", 3, [Lobe.create("Lambertian", [0.3] * 3)])
+    write_merl_binary(tabulate(material), tmp_path / "red-plastic.binary")
+    ws = Workspace.open(tmp_path / "red-plastic.binary")
+    assert ws.title == "untitled (red-plastic.binary) *"
+    ws.save(tmp_path / "red.xml")
+    ws.dirty = False
+    assert ws.title == "red.xml"

@@ -11,6 +11,7 @@ a plain raster window.
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 
 import moderngl
 import numpy as np
@@ -150,18 +151,14 @@ class _GLView(QWidget):
         if self._current == 0:
             self.ctx.__exit__(None, None, None)
 
+    @contextmanager
     def current(self):
         """`with view.current():` the view's context is current inside."""
-        view = self
-
-        class _Current:
-            def __enter__(self):
-                view.makeCurrent()
-
-            def __exit__(self, *exc):
-                view.doneCurrent()
-
-        return _Current()
+        self.makeCurrent()
+        try:
+            yield
+        finally:
+            self.doneCurrent()
 
     def when_ready(self, fn) -> None:
         """Run fn with the context current: now if the view has one, else once it has."""
