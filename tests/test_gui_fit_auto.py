@@ -41,9 +41,9 @@ def test_auto_stores_what_auto_fit_picks_and_shows_the_ladder(window, qtbot):
         qtbot.waitUntil(lambda: "held back" in panel.status.text(), timeout=60000)  # progress arrives
         assert panel.progress.text().startswith("candidate ") and panel.progress.maximum() > 1
         qtbot.waitUntil(lambda: window._thread is None, timeout=120000)
-    gaps = sorted(probe.gaps)
-    print(f"GUI thread gaps during Auto: median {1e3 * gaps[len(gaps) // 2]:.1f} ms, max {1e3 * gaps[-1]:.1f} ms")
-    assert len(gaps) > 20 and gaps[-1] < 2.0, f"the GUI thread was blocked for {1e3 * gaps[-1]:.0f} ms"
+    assert len(probe.gaps) > 20
+    # starting the worker once waited 0.15–0.22 s for it to read a 200 KB slice from its pipe
+    probe.assert_within_budget("during Auto")
 
     # the independent route: auto_fit on the slice read here, with the same settings
     direct = auto_fit(samples_of(read_slice(SLICE)), 0.05, panel.metric_box.currentText(),

@@ -33,12 +33,15 @@ def lower_priority() -> None:
             pass
 
 
-SHARED_BYTES = 1 << 20  # arrays this large reach a worker through shared memory
+# arrays this large reach a worker through shared memory: what is left of a job's arguments
+# then fits a pipe's buffer (64 KiB), and starting a worker never waits for it to read them
+SHARED_BYTES = 1 << 15
 
 
 class _SharingPickler(pickle.Pickler):
     """Pickles large arrays as the name of a shared-memory copy: a measured table (35 MB)
-    or an environment map pickled into a worker's pipe held the GUI thread 0.3–0.5 s."""
+    or an environment map pickled into a worker's pipe held the GUI thread 0.3–0.5 s, and
+    a 200 KB slice 0.15 s (the write waits for the new process to start reading)."""
 
     def __init__(self, file, segments: list) -> None:
         super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)

@@ -466,6 +466,7 @@ class ObjectView(_GLView):
         """What the current mode cannot draw without: (build, args, remember, message), or None."""
         from functools import partial
 
+        from brdflab.lighting.env_sampling import environment_distribution
         from brdflab.lighting.prefilter import build_stack, map_key, remember_stack
         from brdflab.lighting.sh import project_environment
         from brdflab.lighting.split_sum import material_split
@@ -480,6 +481,9 @@ class ObjectView(_GLView):
         if self.settings.mode == "sh" and r.environment is not None and not r.sh_light_ready():
             return (project_environment, (r.environment, r.sh_order, r.sh_window),
                     partial(r.remember_sh_light, r.environment, r.sh_order, r.sh_window), "projecting the map onto SH…")
+        if self.settings.mode == "mis" and r.environment is not None and not r.env_distribution_ready():
+            return (environment_distribution, (r.environment,), partial(r.remember_env_distribution, r.environment),
+                    "preparing the map for MIS…")
         if self.settings.mode == "prefiltered" and r.environment is not None and not r.prefiltered_ready():
             return build_stack, (r.environment, map_key(r.environment)), remember_stack, "prefiltering the environment map…"
         pref = r.prefiltered

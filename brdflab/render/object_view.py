@@ -70,6 +70,7 @@ class ObjectRenderer:
         self._shares = np.ones(1)
         self.env_texture: moderngl.Texture | None = None
         self._env_tables: tuple[moderngl.Texture, moderngl.Texture] | None = None  # MIS: marginal, table
+        self._env_distribution: tuple | None = None  # (map, its luminance distribution), made elsewhere
         self._env_fraction = 0.0
         self.env_size = (1, 1)
         self.camera = OrbitCamera()
@@ -97,6 +98,7 @@ class ObjectRenderer:
             self.set_mesh(old.mesh)
         if old.environment is not None:
             self.set_environment(old.environment)
+        self._env_distribution, self._sh_light = old._env_distribution, old._sh_light  # per map, kept by identity
         source = old.source if old.source is not None else old.material
         if source is not None:
             self.set_source(source)
@@ -176,10 +178,20 @@ class ObjectRenderer:
                 tex.release()
         self._env_tables = None
 
+    def env_distribution_ready(self) -> bool:
+        """Whether the MIS mode can draw without building the map's distribution (0.25 s for a
+        2k map: the window has a worker build it)."""
+        held = self._env_distribution
+        return self._env_tables is not None or (held is not None and held[0] is self.environment)
+
+    def remember_env_distribution(self, env: EnvironmentMap, dist) -> None:
+        self._env_distribution = (env, dist)
+
     def _env_sampling_tables(self) -> tuple[moderngl.Texture, moderngl.Texture]:
         """The map's luminance CDFs and density as textures, built once per map."""
         if self._env_tables is None:
-            dist = environment_distribution(self.environment)
+            held = self._env_distribution
+            dist = held[1] if held is not None and held[0] is self.environment else environment_distribution(self.environment)
             marginal = self.ctx.texture((dist.height, 1), 1, dist.marginal.astype(np.float32).tobytes(), dtype="f4")
             table = np.ascontiguousarray(np.stack([dist.conditional, dist.density], axis=-1), np.float32)
             table_tex = self.ctx.texture((dist.width, dist.height), 2, table.tobytes(), dtype="f4")
