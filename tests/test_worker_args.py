@@ -63,3 +63,16 @@ def test_a_fence_reports_done_once_the_draws_are_done():
         assert fence.done()
         assert np.frombuffer(fbo.read(), np.uint8)[:3].tolist() == [64, 128, 191]
     ctx.release()
+
+
+def test_without_room_in_shared_memory_arrays_go_through_the_pipe(monkeypatch):
+    import os
+
+    class Full:
+        f_bavail, f_frsize = 10, 4096
+
+    monkeypatch.setattr(os, "statvfs", lambda path: Full())
+    table = np.ones(SHARED_BYTES)
+    packed = Packed((table,))
+    assert packed.segments == [] and len(packed.payload) > table.nbytes
+    np.testing.assert_array_equal(pickle.loads(packed.payload)[0], table)

@@ -48,12 +48,23 @@ class _SharingPickler(pickle.Pickler):
         self._segments = segments
 
     def reducer_override(self, obj):
-        if type(obj) is not np.ndarray or obj.nbytes < SHARED_BYTES or obj.dtype.hasobject:
+        if type(obj) is not np.ndarray or obj.nbytes < SHARED_BYTES or obj.dtype.hasobject or not _room_for(obj.nbytes):
             return NotImplemented
         segment = shared_memory.SharedMemory(create=True, size=obj.nbytes)
         self._segments.append(segment)
         np.ndarray(obj.shape, obj.dtype, buffer=segment.buf)[...] = obj
         return _attached_copy, (segment.name, obj.shape, obj.dtype.str)
+
+
+def _room_for(nbytes: int) -> bool:
+    """Whether shared memory has room for twice `nbytes`: writing past a full /dev/shm (64 MB
+    in a default container) kills the writer with SIGBUS instead of raising; such arrays go
+    through the pipe as before."""
+    try:
+        fs = os.statvfs("/dev/shm")
+    except (OSError, AttributeError):  # no /dev/shm (macOS) or no statvfs (Windows)
+        return True
+    return fs.f_bavail * fs.f_frsize > 2 * nbytes
 
 
 def _attached_copy(name: str, shape: tuple, dtype: str) -> np.ndarray:
