@@ -16,8 +16,7 @@ import numpy as np
 from brdflab.lighting.envmap import EnvironmentMap
 from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial
-from brdflab.sources.measured import MeasuredTable, tabulate
-from brdflab.sources.proxy import proxy_lobes
+from brdflab.sources.proxy import proxy_lobes, render_table
 from brdflab.io.mesh import Mesh
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.prefiltered import PrefilteredLighting
@@ -125,8 +124,8 @@ class ObjectRenderer:
         if isinstance(source, AnalyticMaterial):
             self.set_material(source)
             return
-        table = source if isinstance(source, MeasuredTable) else tabulate(source, phi_d_samples=1)
-        self.set_material(proxy_lobes(table))
+        table = render_table(source)
+        self.set_material(proxy_lobes(source))
         self.measured = True
         if self.table_texture is not None:
             self.table_texture.release()

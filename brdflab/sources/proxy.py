@@ -16,6 +16,21 @@ MIN_ROUGHNESS = 0.05
 # every view-control change, and a refit each time cost ~0.7 s on the GUI thread
 # (by id: sources are unhashable dataclasses; an entry goes when its source does)
 _PROXIES: dict[int, AnalyticMaterial] = {}
+_TABLES: dict[int, object] = {}
+
+
+def render_table(source):
+    """The table a measured source is drawn (and its proxy fitted) from: the source itself
+    when it is a table, else its tabulation, made once per source object."""
+    from brdflab.sources.measured import MeasuredTable, tabulate
+
+    if isinstance(source, MeasuredTable):
+        return source
+    key = id(source)
+    if key not in _TABLES:
+        _TABLES[key] = tabulate(source, phi_d_samples=1)
+        weakref.finalize(source, _TABLES.pop, key, None)
+    return _TABLES[key]
 
 
 def proxy_lobes(source) -> AnalyticMaterial:
@@ -34,10 +49,9 @@ def proxy_lobes(source) -> AnalyticMaterial:
 
 def _fit_proxy(source) -> AnalyticMaterial:
     from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
-    from brdflab.sources.measured import MeasuredTable, tabulate
     from brdflab.fitting.samples import samples_of
 
-    table = source if isinstance(source, MeasuredTable) else tabulate(source, phi_d_samples=1)
+    table = render_table(source)
     start = material_from_lobes(["Lambertian", "CookTorrance", "CookTorrance"], "Linear", table.n_channels)
     start.lobes[1].params["m"], start.lobes[2].params["m"] = 0.05, 0.35
     result = fit(start, samples_of(table, "subset", size=20_000),
