@@ -130,7 +130,7 @@ class ObjectRenderer:
         if self.table_texture is not None:
             self.table_texture.release()
         values = np.ascontiguousarray(np.moveaxis(table.values[:3], 0, -1), np.float32)  # (θh, θd, φd, 3)
-        tex = self.ctx.texture3d((values.shape[2], values.shape[1], values.shape[0]), 3, values.tobytes(), dtype="f4")
+        tex = self.ctx.texture3d((values.shape[2], values.shape[1], values.shape[0]), 3, values, dtype="f4")  # no copy: its buffer
         tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
         tex.repeat_x, tex.repeat_y, tex.repeat_z = True, False, False
         self.table_texture = tex
