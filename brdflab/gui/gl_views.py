@@ -113,16 +113,15 @@ class _GLView(QWidget):
         """A hidden view may not be polled: finish its work and give the turn back."""
         if self.ctx is not None and GL_QUEUE.holder is self._owner:
             with self.current():
-                self.ctx.finish()
                 self.drop_flight()
         GL_QUEUE.give_back(self._owner)
         GL_QUEUE.waiting.discard(self._owner)
         super().hideEvent(event)
 
     def drop_flight(self) -> None:
-        """Forget work in flight that has finished unseen (context current)."""
+        """Wait for the work in flight and forget it unseen (context current)."""
         if self._frame_fence is not None:
-            self._frame_fence.wait()  # done already: this frees the fence
+            self._frame_fence.wait()
         self._frame_fence, self._dirty = None, True
 
     def _initialize(self) -> None:
@@ -547,8 +546,7 @@ class ObjectView(_GLView):
         if image is self._progressive:  # not restarted meanwhile: show it
             self._dirty = True
             self._advance_frame()
-            target = self.settings.samples if self.settings.mode in SAMPLED_MODES else 1
-            if self.settings.mode == "sh" and image.samples >= target:
+            if self.settings.mode == "sh" and image.samples >= self._target_samples():
                 self.ringing.emit(clamped_fraction(image.texture.read()))
         return True
 
@@ -562,8 +560,7 @@ class ObjectView(_GLView):
             settings = RenderSettings(**{**self.settings.__dict__, "width": w, "height": h})
             self._progressive = self.renderer.start_progressive(settings)
             self._progressive_b = self._second_renderer().start_progressive(settings) if self.comparing else None
-        p = self._progressive
-        target = self.settings.samples if self.settings.mode in SAMPLED_MODES else 1
+        p, target = self._progressive, self._target_samples()
         if p.samples >= target:
             self._timer.stop()
             return
@@ -575,6 +572,10 @@ class ObjectView(_GLView):
             if image is not None:
                 image.step(n)
         self._flight = (Fence(self.ctx), p, n, began)
+
+    def _target_samples(self) -> int:
+        """Samples the complete image has: the setting's in sampled modes, else one draw."""
+        return self.settings.samples if self.settings.mode in SAMPLED_MODES else 1
 
     def can_draw(self) -> bool:
         """Drawn images only: samples that have landed, or the background of a blank view."""

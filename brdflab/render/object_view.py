@@ -186,11 +186,17 @@ class ObjectRenderer:
     def remember_env_distribution(self, env: EnvironmentMap, dist) -> None:
         self._env_distribution = (env, dist)
 
+    def _map_distribution(self):
+        """The map's luminance distribution: the one remembered for it, else built here."""
+        held = self._env_distribution
+        if held is None or held[0] is not self.environment:
+            self.remember_env_distribution(self.environment, environment_distribution(self.environment))
+        return self._env_distribution[1]
+
     def _env_sampling_tables(self) -> tuple[moderngl.Texture, moderngl.Texture]:
         """The map's luminance CDFs and density as textures, built once per map."""
         if self._env_tables is None:
-            held = self._env_distribution
-            dist = held[1] if held is not None and held[0] is self.environment else environment_distribution(self.environment)
+            dist = self._map_distribution()
             marginal = self.ctx.texture((dist.height, 1), 1, dist.marginal.astype(np.float32).tobytes(), dtype="f4")
             table = np.ascontiguousarray(np.stack([dist.conditional, dist.density], axis=-1), np.float32)
             table_tex = self.ctx.texture((dist.width, dist.height), 2, table.tobytes(), dtype="f4")

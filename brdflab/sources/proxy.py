@@ -19,6 +19,15 @@ _PROXIES: dict[int, AnalyticMaterial] = {}
 _TABLES: dict[int, object] = {}
 
 
+def _once_per_source(cache: dict, source, make):
+    """make(source), kept in `cache` while `source` lives."""
+    key = id(source)
+    if key not in cache:
+        cache[key] = make(source)
+        weakref.finalize(source, cache.pop, key, None)
+    return cache[key]
+
+
 def render_table(source):
     """The table a measured source is drawn (and its proxy fitted) from: the source itself
     when it is a table, else its tabulation, made once per source object."""
@@ -26,11 +35,7 @@ def render_table(source):
 
     if isinstance(source, MeasuredTable):
         return source
-    key = id(source)
-    if key not in _TABLES:
-        _TABLES[key] = tabulate(source, phi_d_samples=1)
-        weakref.finalize(source, _TABLES.pop, key, None)
-    return _TABLES[key]
+    return _once_per_source(_TABLES, source, lambda s: tabulate(s, phi_d_samples=1))
 
 
 def proxy_lobes(source) -> AnalyticMaterial:
@@ -40,11 +45,7 @@ def proxy_lobes(source) -> AnalyticMaterial:
     a measured source's proxy is fitted once per source object (a copy is returned)."""
     if isinstance(source, AnalyticMaterial):
         return source
-    key = id(source)
-    if key not in _PROXIES:
-        _PROXIES[key] = _fit_proxy(source)
-        weakref.finalize(source, _PROXIES.pop, key, None)
-    return _PROXIES[key].copy()
+    return _once_per_source(_PROXIES, source, _fit_proxy).copy()
 
 
 def _fit_proxy(source) -> AnalyticMaterial:
