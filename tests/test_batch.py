@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 
 from brdflab.batch.runner import BatchSettings, run_batch
+from brdflab.batch.tasks import restore_malloc_reuse
 from brdflab.cli import main
 from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
 from brdflab.fitting.metrics import metric_error
@@ -52,13 +53,18 @@ def summary_of(proc) -> dict:
 @pytest.fixture(scope="module")
 def cluster():
     """One LocalCluster of two single-threaded worker processes, shared by the tests that
-    use an existing cluster (`--scheduler`)."""
+    use an existing cluster (`--scheduler`): Dask's defaults, as on a cluster the lab did not
+    start. Its nanny writes its pre-spawn variables into this process's environment; they
+    are taken back out so that later tests' processes do not inherit them."""
+    saved = dict(os.environ)
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                                        silence_logs=logging.CRITICAL)
     client = distributed.Client(cluster)
     yield cluster, client
     client.close()
     cluster.close()
+    os.environ.clear()
+    os.environ.update(saved)
 
 
 def test_local_cluster_batch_equals_fits_alone_and_bad_file_is_a_failed_row(tmp_path):
@@ -175,3 +181,29 @@ def test_missing_source_and_out_file_are_one_line_errors(tmp_path, capsys):
     copy_slices(tmp_path / "data", ["pvc"])
     assert main(["batch", str(tmp_path / "data"), "--lobes", "Lambertian", "--out", str(tmp_path / "o")]) == 2
     assert "--out must be a folder" in capsys.readouterr().err
+
+
+def test_the_labs_cluster_starts_workers_without_malloc_trim(tmp_path):
+    """Dask's nanny starts workers with MALLOC_TRIM_THRESHOLD_ set, which turns off glibc's
+    adaptive mmap threshold and makes a fit about 30 % slower (docs/batch.md): the cluster
+    that `brdflab batch` starts leaves it unset (checked in a fresh process, as the CLI runs)."""
+    code = ("import os\nfrom distributed import Client\nfrom brdflab.batch.runner import local_cluster\n"
+            "if __name__ == '__main__':\n    cluster = local_cluster(1)\n    client = Client(cluster)\n"
+            "    print(list(client.run(lambda: os.environ.get('MALLOC_TRIM_THRESHOLD_', 'unset')).values()))\n"
+            "    print(os.environ.get('MALLOC_TRIM_THRESHOLD_', 'unset'))\n    client.close(); cluster.close()\n")
+    (tmp_path / "probe.py").write_text(code)
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    proc = subprocess.run([sys.executable, "probe.py"], cwd=tmp_path, env={**env, "PYTHONPATH": str(ROOT)},
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split("\n")[:2] == ["['unset']", "unset"]  # the workers, and the process that started them
+
+
+def test_workers_of_another_cluster_get_freed_memory_reused(cluster, monkeypatch):
+    """On a cluster with Dask's defaults the task raises glibc's thresholds back (once per
+    process); a process started without the variable is left alone."""
+    _, client = cluster
+    assert set(client.run(lambda: os.environ.get("MALLOC_TRIM_THRESHOLD_")).values()) == {"65536"}
+    assert all(client.run(restore_malloc_reuse).values())
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    assert restore_malloc_reuse.__wrapped__() is False

@@ -77,7 +77,12 @@ def open_client(settings: BatchSettings):
 # A fit holds the GIL in the worker's task thread; every wake-up of the worker's event loop
 # takes it away (a loop tick every 20 ms, the sampling profiler every 10 ms, monitors), which
 # costs most on a busy machine, where the fit's thread then waits for a core to get it back.
+# The nanny also starts each worker with MALLOC_TRIM_THRESHOLD_=65536 (Dask's default), which
+# turns off glibc's adaptive mmap threshold: every temporary array over 128 KB is then mapped
+# and unmapped at each use, and a fit runs 30 % slower (measured: docs/batch.md). Not set here
+# (None removes it); on other clusters `tasks.restore_malloc_reuse` undoes most of it.
 QUIET_WORKERS = {
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
     "distributed.worker.profile.enabled": False,
     "distributed.admin.tick.interval": "1s",
     "distributed.admin.system-monitor.interval": "2s",
