@@ -48,8 +48,11 @@ def test_the_full_design_covers_every_slice_and_model():
     slices = [f"m{k:02d}" for k in range(31)]
     plan = fitting.design(slices, fitting.FULL)
     assert len(plan) == len(set(plan))
-    core = {(s, f.model) for s, f, size in plan if f.core and size == fitting.FULL.core_size}
-    assert core == {(s, m) for s in slices for m in model_names()}
+    core = {(s, f) for s, f, size in plan if size == fitting.FULL.core_size}
+    assert core == {(s, f) for s in slices for f in fitting.families(model_names())}  # every family everywhere
+    quick = {(s, f) for s, f, size in fitting.design(slices, fitting.QUICK) if size == fitting.QUICK.core_size}
+    assert {f for _, f in quick if len({s for s, g in quick if g == f}) == len(slices)} == \
+        {f for f in fitting.families(list(fitting.QUICK.models)) if f.basic}  # quick: one lobe, Linear
     # every family of every model, at every size of its combination, on one slice
     sampled = {(f, size) for _, f, size in plan}
     for family in fitting.families(model_names()):

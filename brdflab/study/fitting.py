@@ -7,11 +7,12 @@ the fit saw; the time is the fit's wall time (the fitter's defaults: restarts on
 60,000-sample coarse subset, then a polish on the fitted set).
 
 The full matrix (16 models × 2 lobe counts × 2 combinations × 5 sample sets × 31 slices,
-about 9,600 fits of 0.05–200 s) does not fit a 30–40 min run on two shared cores, so a run
-fits a `Matrix` in two tiers (`design`):
-- core: on every slice, every model with one lobe (and the Lambertian alone), Linear,
-  on a `core_size` subset — every model on every material, the reference of the pooled
-  chart (the subset chart shows what fitting a subset costs in error);
+about 9,600 fits of 0.05–200 CPU s, some 32 CPU-hours) does not fit a run on two cores, so a
+run fits a `Matrix` in two tiers (`design`):
+- core: on every slice, on a `core_size` subset, every family (`every_family_core`: the
+  full run) or every model with one lobe and the Lambertian alone, Linear (the quick and
+  scoped runs) — every family on every material, the reference of the pooled chart (the
+  subset chart shows what fitting a subset costs in error);
 - sampled: every family (model × lobe count × combination) at every size of `sizes`
   (Linear) or `fixed_sizes` (Fixed), all samples included, on `per_model` slices; all
   families of a model share their slices (a material's chart shows that model's whole
@@ -46,12 +47,18 @@ class Matrix:
     fixed_sizes: tuple[int | None, ...]  # its Fixed families
     per_model: int = 1
     two_fixed: bool = True  # Fixed with two lobes (3 × 2 per-channel lobes)
+    every_family_core: bool = False  # every family on every slice (else one lobe, Linear)
+
+    def is_core(self, family: "Family") -> bool:
+        """Whether the family is fitted on every slice at `core_size`."""
+        return self.every_family_core or family.basic
 
 
-# the full run: 496 core fits on 20 k samples, then per model 4 Linear sizes (all samples
-# included) and 3 Fixed sizes (subsets only: a two-lobe Fixed fit on all samples costs as much
-# as 20–100 core fits); 697 fits, 993 CPU s when measured (docs/study.md)
-FULL = Matrix(tuple(model_names()), 20_000, (5_000, 20_000, 50_000, None), (5_000, 20_000, 50_000))
+# the full run: every family on every slice at 20 k samples (1,922 fits), then on one slice
+# per model every family at 5 k, 50 k, 200 k and all samples; about 2,170 fits and two
+# hours of CPU (docs/study.md)
+FULL = Matrix(tuple(model_names()), 20_000, (5_000, 20_000, 50_000, 200_000, None),
+              (5_000, 20_000, 50_000, 200_000, None), every_family_core=True)
 QUICK = Matrix(("Lambertian", "BlinnPhong", "Ward"), 10_000, (2_000, 10_000, None), (2_000, 10_000))
 SCOPED = Matrix(("Lambertian", "BlinnPhong", "CookTorrance", "Ward", "LafortuneIso"), None,
                 (5_000, 50_000, None), (50_000,), two_fixed=False)
@@ -71,8 +78,8 @@ class Family:
         return (self.model,) * self.lobes
 
     @property
-    def core(self) -> bool:
-        """Fitted on every material."""
+    def basic(self) -> bool:
+        """One lobe (or the Lambertian alone), Linear: the families every run fits everywhere."""
         return self.lobes <= 1 and self.combination == "Linear"
 
     @property
@@ -88,14 +95,14 @@ def families(models: list[str]) -> list[Family]:
 
 
 def design(slices: list[str], matrix: Matrix) -> list[tuple[str, Family, int | None]]:
-    """(slice, family, size or None for all samples) of every fit, without repeats: core
-    families on every slice at `core_size`; every family at each of its sizes on
+    """(slice, family, size or None for all samples) of every fit, without repeats: the
+    matrix's core families on every slice at `core_size`; every family at each of its sizes on
     `per_model` slices, the same for all families of a model (the models' first slices
     spread evenly over the list, the others len/per_model apart)."""
     plan: dict[tuple, None] = {}
     fams = [f for f in families(list(matrix.models)) if matrix.two_fixed or (f.lobes, f.combination) != (2, "Fixed")]
     for family in fams:
-        if family.core:
+        if matrix.is_core(family):
             for s in slices:
                 plan[(s, family, matrix.core_size)] = None
     stride = max(1, len(slices) // max(1, matrix.per_model))
@@ -155,7 +162,7 @@ def measure(context: StudyContext) -> dict:
     clock = "wall" if workers == 1 else "cpu"
     jobs = [FitJob(slices[s], f.lobe_names, f.combination, size, clock=clock,
                    tag={"material": s, "model": f.model, "lobes_count": f.lobes, "family": f.label,
-                        "size": size, "core": f.core and size == matrix.core_size})
+                        "size": size, "core": matrix.is_core(f) and size == matrix.core_size})
             for s, f, size in plan]
     jobs.sort(key=_expected_cost, reverse=True)
     started = time.time()
@@ -170,6 +177,7 @@ def measure(context: StudyContext) -> dict:
     return {**summarise(rows, matrix.core_size), "failed": [r for r in done if r["error"] is None], "metric": "Ngan", "workers": workers, "clock": clock,
             "materials": list(slices), "models": list(matrix.models), "core_size": matrix.core_size,
             "sizes": list(matrix.sizes), "fixed_sizes": list(matrix.fixed_sizes), "per_model": matrix.per_model,
+            "every_family_core": matrix.every_family_core,
             "fits_planned": len(jobs), "fits_done": len(done),
             "wall_s": time.time() - started, "load_average": {"before": load_before, "after": _load_average()},
             "rows": rows}

@@ -1,8 +1,8 @@
 """Charts and summaries of the `fitting` study part, from its rows only.
 
-Errors are pooled over materials relative to each material's best core fit (one lobe,
-Linear, on the core sample set: fitted on every material), so a material with a large error (a
-metal) and one with a small error (a fabric) weigh the same.
+Errors are pooled over materials relative to each material's best core fit (the families
+fitted on every material, on the core sample set), so a material with a large error (a metal)
+and one with a small error (a fabric) weigh the same.
 """
 
 from __future__ import annotations
@@ -220,7 +220,7 @@ def draw_pooled(rows: list[dict], out_dir: Path, summary: list[dict], subsets: l
     a.set_xlabel(f"{time_label}, fitted on {fitted}: median, bar = range over materials")
     a.set_ylabel("error on all samples / the material's best core error")
     a.set_title(f"Pooled: filled = on all {everywhere} materials (median, range), front over these;\n"
-                "hollow = one material (the model's sampled slice)", fontsize=9)
+                "hollow = fewer materials (the model's sampled slice)", fontsize=9)
     a.grid(True, which="both", alpha=0.2)
 
     sizes = [s["size"] for s in subsets]
@@ -261,7 +261,7 @@ def draw_pooled(rows: list[dict], out_dir: Path, summary: list[dict], subsets: l
     c.axvline(100 * ENOUGH, color="red", ls=":", lw=1, label=f"{ENOUGH:.0%}: below, it stops paying")
     c.set_yticks(y, models, fontsize=7)
     c.set_xlabel("median error reduction (%), same material and samples; label: time factor")
-    c.set_title("What more lobes or parameters buy\n(each model's sampled material, its subsets and all samples)",
+    c.set_title("What more lobes or parameters buy\n(median over the materials and sample sets fitted both ways)",
                 fontsize=9)
     c.legend(fontsize=7, loc="lower right")
     c.grid(True, axis="x", alpha=0.2)
