@@ -6,6 +6,7 @@ import os
 import numpy as np
 import pytest
 from PIL import Image
+from PySide6.QtWidgets import QScrollArea
 
 from test_gui import window  # noqa: F401  (the fixture)
 
@@ -27,6 +28,10 @@ def test_the_lobe_viewer_is_the_central_largest_view_and_fits_a_laptop(window, q
     lobe = area(window.lobe_view)
     assert lobe > area(window.object_view)
     assert all(lobe > area(d) for d in window._docks.values() if d.isVisible())
+    qtbot.wait(200)
+    sideways = [name for name, dock in window._docks.items() for a in dock.findChildren(QScrollArea)
+                if a.isVisible() and a.horizontalScrollBar().isVisible()]
+    assert not sideways, f"panels cut on the right (scrolling sideways): {sideways}"
     window.resize(1800, 1000)  # it grows with the window
     qtbot.waitUntil(lambda: area(window.lobe_view) > 1.3 * lobe, timeout=5000)
 

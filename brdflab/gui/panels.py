@@ -297,6 +297,14 @@ def auto_level_job(job: tuple) -> tuple[int, float]:
     return auto_level(sources, shape, tolerance)
 
 
+def _side_by_side(*widgets: QWidget) -> QHBoxLayout:
+    row = QHBoxLayout()
+    for w in widgets:
+        row.addWidget(w)
+    row.addStretch(1)
+    return row
+
+
 class LobeControls(QWidget):
     """θ/φ of the incident direction and how the lobe is drawn."""
 
@@ -317,19 +325,16 @@ class LobeControls(QWidget):
                                    "of its peak radius (checked inside every triangle, in the background)")
         self.auto_level_note = QLabel("")
         self.auto_level_note.setStyleSheet("color: #707070")
+        self.auto_level_note.setWordWrap(True)
         self.translucent = QCheckBox("translucent fit")
         self.translucent.setChecked(True)
-        form = QFormLayout(self)
+        form = QFormLayout(self)  # one control or two per row: the dock is narrow on a laptop
         form.addRow("θi (°)", self.theta)
         form.addRow("φi (°)", self.phi)
-        row = QHBoxLayout()
-        for w in (QLabel("transfer"), self.transfer, QLabel("channel"), self.channel, self.cosine):
-            row.addWidget(w)
-        form.addRow(row)
-        row2 = QHBoxLayout()
-        for w in (QLabel("subdivision"), self.level, self.auto_level, self.auto_level_note, self.translucent):
-            row2.addWidget(w)
-        form.addRow(row2)
+        form.addRow("transfer", self.transfer)
+        form.addRow("channel", self.channel)
+        form.addRow(_side_by_side(self.cosine, self.translucent))
+        form.addRow("subdivision", _side_by_side(self.level, self.auto_level, self.auto_level_note))
         self.auto_level.toggled.connect(self.level.setDisabled)
         self.auto_level.toggled.connect(lambda on: self.auto_level_note.setText("") if not on else None)
         self.auto_level.toggled.connect(lambda _: self.changed.emit())
