@@ -13,8 +13,11 @@ import io
 import json
 import math
 import os
+import signal
 import sys
+import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
@@ -677,6 +680,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that `finally` blocks stop worker processes and
+    clusters (by default the process would die at once and leave its workers running)."""
+
+
+@contextmanager
+def _terminate_cleanly(command: str):
+    """While a command runs, SIGTERM raises `_Terminated`. Not for the GUI, whose event loop
+    runs no Python between events (the default action stops it at once)."""
+    if command == "gui" or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def terminate(signum, frame):
+        raise _Terminated
+
+    previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def main(argv: list[str] | None = None) -> int:
     from brdflab.cli_options import UsageError
 
@@ -692,13 +718,17 @@ def main(argv: list[str] | None = None) -> int:
         print(e, file=sys.stderr)
         return 2
     try:
-        return args.func(args)
+        with _terminate_cleanly(args.command):
+            return args.func(args)
     except BRDFLabError as e:
         print(f"brdflab {args.command}: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"brdflab {args.command}: interrupted", file=sys.stderr)
         return 130
+    except _Terminated:
+        print(f"brdflab {args.command}: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except BrokenPipeError:  # `brdflab models | head`: the reader left; say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # the exit flush must not fail again
         return 141  # 128 + SIGPIPE, what a shell reports for a writer whose reader left

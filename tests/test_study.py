@@ -1,8 +1,14 @@
 """`brdflab study`: the framework, and the lobe viewer part (subdivision against shape)."""
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
+import psutil
 import pytest
 
 from brdflab.cli import main
@@ -11,6 +17,7 @@ from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.render.lobe_view import LobeSettings
 from brdflab.study.framework import check_finite
 from brdflab.geometry.lobe_surface import auto_level, surface_error
+from conftest import ROOT, SHARED, needs_shared
 
 
 def test_a_non_finite_number_anywhere_is_refused():
@@ -94,3 +101,24 @@ def test_study_quick_runs_every_part_from_another_folder(quick_study):
         elif isinstance(value, float):
             numbers.append(value)
     assert len(numbers) > 100 and all(math.isfinite(v) for v in numbers)
+
+
+@needs_shared("merl_slices")
+def test_sigterm_stops_the_study_and_its_worker_processes(tmp_path):
+    """`kill` (SIGTERM) of a study that is fitting on a process pool: one line, exit status
+    143, and no worker process left fitting on its own."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "BRDFLAB_SHARED": str(SHARED)}
+    proc = subprocess.Popen([sys.executable, "-m", "brdflab", "study", "--quick", "--part", "fitting", "--out", "s"],
+                            cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True)
+    parent = psutil.Process(proc.pid)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(parent.children(recursive=True)) < 2:
+        time.sleep(0.2)  # the spawned pool (and its resource tracker) is up
+    workers = parent.children(recursive=True)
+    assert len(workers) >= 2 and proc.poll() is None
+    time.sleep(1.0)  # the workers are fitting
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and err.strip().splitlines()[-1] == "brdflab study: terminated"
+    gone, alive = psutil.wait_procs(workers, timeout=10)
+    assert not alive, [p.cmdline() for p in alive]
