@@ -251,3 +251,17 @@ def test_failed_fit_leaves_existing_fits_untouched(tmp_path, merl_path, capsys):
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
         assert hashlib.sha256(out.read_bytes()).hexdigest() == digest
+
+
+@needs_shared("merl_slices", "light-red-paint.slice")
+def test_the_polish_goes_on_from_what_the_coarse_stage_found():
+    """A Fixed fit whose coarse stage ends with KurtDiffuse's F0 on its bound (the lobe off,
+    its magnitude huge): the polish on every sample must go on from there. It used to move F0
+    1 % inside again, the lobe exploded (error 1e23), and the fit returned its start as 'no
+    better than a zero BRDF' (found by the fitting study on this slice, 130 k–1.1 M samples)."""
+    samples = samples_of(read_slice(DATA / "merl_slices" / "light-red-paint.slice")).subset(130_000, seed=1)
+    options = FitOptions(metric="Ngan", coarse_size=60_000, diagnose=False)
+    result = fit(material_from_lobes(["Lambertian", "KurtDiffuse"], "Fixed", 3), samples, options)
+    lambertian = fit(material_from_lobes(["Lambertian"], "Fixed", 3), samples, options)
+    assert result.status == "converged"
+    assert result.error <= 1.001 * lambertian.error  # the lobe adds nothing on this paint, but costs nothing

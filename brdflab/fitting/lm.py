@@ -579,13 +579,11 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
         if status in STOPPED:
             break
     result_material = material
-    coarse_best = None  # the coarse stage's winner: the polish may end worse than it
     if candidates:
         _, result_material, lam, u = min(candidates, key=lambda c: c[0])
         # stage 2: polish the best on every sample, from its own search vector (not moved
         # off a bound again: that would change the lobe the coarse stage found)
         if coarse is not None and status not in STOPPED:
-            coarse_best = result_material
             problem = _Problem(result_material, samples, options, stop)
             try:
                 u, state, its, status, _ = _lm(problem, u, options, options.max_iterations,
@@ -597,17 +595,10 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
             if state is not None:
                 result_material = problem.material_of(u, state[4])
 
-    # the reported error: summed directly over the scored samples, against the start's and
-    # the coarse winner's (a parameter moved off its bound for the polish can make a Fixed
-    # lobe's magnitude explode, and LM may not climb back from there within its iterations)
+    # the reported error: summed directly over the scored samples, against the start's
     scored = score_on or samples
-    others = [coarse_best] if coarse_best is not None and coarse_best is not result_material else []
-    start_error, error, *coarse_error, zero_error = metric_errors([material, result_material, *others, None],
-                                                                   scored, options.metric)
+    start_error, error, zero_error = metric_errors([material, result_material, None], scored, options.metric)
     passes += 1
-    kept_coarse = bool(coarse_error) and math.isfinite(coarse_error[0]) and not coarse_error[0] >= error
-    if kept_coarse:
-        result_material, error = coarse_best, coarse_error[0]
     kept_start = not math.isfinite(error) or start_error <= error
     if kept_start:
         result_material, error = material.copy(), start_error
@@ -622,8 +613,6 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
     message = messages.get(status, status)
     if kept_start and status == "converged":
         message = "converged: nothing better than the start was found, so the start is returned unchanged"
-    elif kept_coarse:
-        message = f"{message}; polishing on every sample ended worse, so the coarse stage's result is kept"
     if error >= zero_error and status not in STOPPED:
         status = "no-better-than-zero"
         message = (f"no better than a zero BRDF ({options.metric} {zero_error:.6g}): "
