@@ -252,10 +252,15 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     from brdflab.batch.runner import BatchSettings, run_batch
 
+    if args.tolerance is not None and not args.auto:
+        raise BRDFLabError("--tolerance applies to --auto")
     lobe_sets = [tuple(s.strip() for s in spec.split(",") if s.strip()) for spec in args.lobes]
+    models = tuple(m.strip() for m in args.models.split(",") if m.strip()) if args.models else ()
+    tolerance = {} if args.tolerance is None else {"auto_tolerance": args.tolerance}
     settings = BatchSettings(sources=[Path(s) for s in args.sources], lobe_sets=lobe_sets, out=Path(args.out),
                              metric=args.metric, combination={"linear": "Linear", "fixed": "Fixed"}[args.combination],
-                             max_iterations=args.max_iterations, scheduler=args.scheduler, workers=args.workers)
+                             max_iterations=args.max_iterations, scheduler=args.scheduler, workers=args.workers,
+                             auto=args.auto, auto_models=models, **tolerance)
     summary = run_batch(settings)
     human = (f"{summary.tasks} tasks: {summary.ran} fitted ({summary.failed} failed), {summary.skipped} already done, "
              f"{summary.seconds:.1f} s; wrote {args.out}/{{{','.join(summary.files)}}} and {args.out}/fits/")
@@ -500,7 +505,8 @@ EXAMPLES = {
             "  brdflab eval fits.xml --fitting 0 --pairs pairs.npy --out values.npy",
     "fit": "brdflab fit gold-metallic-paint3.slice --lobes Lambertian,CookTorrance --out gold.xml\n"
            "  brdflab fit gold.xml --init gold.xml --out gold.xml --json",
-    "batch": "brdflab batch slices/ --lobes Lambertian,BlinnPhong --lobes Lambertian,CookTorrance --out results/",
+    "batch": "brdflab batch slices/ --lobes Lambertian,BlinnPhong --lobes Lambertian,CookTorrance --out results/\n"
+             "  brdflab batch slices/ --auto --out results/",
     "render": "brdflab render example:fig2 --mode fis --samples 256 --out fig2.png\n"
               "  brdflab render gold.xml --fitting 0 --mode sh --view reference --out gold.exr",
     "simulate": "brdflab simulate --list\n  brdflab simulate <KIND> --set NAME=VALUE --out simulated.xml",
@@ -594,8 +600,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _add(sub, "batch", "fit lobe sets to many sources on a Dask cluster (resumable)")
     p.add_argument("sources", nargs="+", help="measured data or XML files, or folders of them")
-    p.add_argument("--lobes", action="append", required=True,
+    p.add_argument("--lobes", action="append", default=[],
                    help="a lobe set, e.g. Lambertian,BlinnPhong; repeat for several")
+    p.add_argument("--auto", action="store_true",
+                   help="also one task per source that climbs Auto's ladder (as fit --auto) and keeps its pick; "
+                        "its row's error is the pick's on all samples")
+    p.add_argument("--tolerance", type=float, default=None,
+                   help="with --auto: the relative held-back error gain a rung must beat (default 0.05)")
+    p.add_argument("--models", help="with --auto: the lobe models the ladder tries, comma-separated (default: all)")
     p.add_argument("--metric", default=DEFAULT_METRIC, help="L2, cosL2 or Ngan (as for fit)")
     p.add_argument("--combination", choices=["linear", "fixed"], default="linear", help="how lobes combine")
     p.add_argument("--max-iterations", type=int, default=200, help="Levenberg–Marquardt iterations")

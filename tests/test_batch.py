@@ -18,6 +18,7 @@ import pytest
 from brdflab.batch.runner import BatchSettings, run_batch
 from brdflab.batch.tasks import restore_malloc_reuse
 from brdflab.cli import main
+from brdflab.fitting.auto import auto_fit
 from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
 from brdflab.fitting.metrics import metric_error
 from brdflab.fitting.samples import samples_of
@@ -166,6 +167,10 @@ def test_killed_worker_loses_no_result(tmp_path, cluster):
     (["--lobes", "Lambertian,NoSuchLobe"], "NoSuchLobe"),
     (["--lobes", "Lambertian", "--metric", "L7"], "unknown metric"),
     (["--lobes", "Lambertian", "--workers", "0"], "--workers must be at least 1"),
+    ([], "name at least one lobe set (--lobes A,B,...) or --auto"),
+    (["--lobes", "Lambertian", "--models", "Ward"], "--models applies to --auto"),
+    (["--auto", "--models", "Ward,NoSuchLobe"], "NoSuchLobe"),
+    (["--auto", "--tolerance", "1.5"], "--tolerance 1.5"),
 ])
 def test_bad_options_fail_in_one_line_before_any_cluster(tmp_path, capsys, argv, message):
     copy_slices(tmp_path / "data", ["pvc"])
@@ -207,3 +212,26 @@ def test_workers_of_another_cluster_get_freed_memory_reused(cluster, monkeypatch
     assert all(client.run(restore_malloc_reuse).values())
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     assert restore_malloc_reuse.__wrapped__() is False
+
+
+def test_auto_is_one_more_task_per_source_scored_on_all_samples(tmp_path, cluster):
+    """`--auto`: per source, Auto's ladder (as `brdflab fit --auto`) as a task of its own; its
+    row names the pick, and its error is the pick's on every sample of the source."""
+    _, client = cluster
+    data = copy_slices(tmp_path / "data", ["pvc"])
+    settings = BatchSettings([data], [("Lambertian", "Ward")], tmp_path / "out", metric="Ngan", auto=True,
+                             auto_models=("BlinnPhong", "Ward"), scheduler=client.scheduler.address)
+    summary = run_batch(settings, stream=open(os.devnull, "w"))
+    assert (summary.tasks, summary.ran, summary.failed) == (2, 2, 0)
+    table = pd.read_csv(tmp_path / "out" / "results.csv")
+    auto = table[table["lobes"] == "auto"].iloc[0]
+    samples = samples_of(read_slice(data / "pvc.slice"))
+    ladder = auto_fit(samples, 0.05, "Ngan", "Linear", models=["BlinnPhong", "Ward"])  # the same ladder, alone
+    assert auto["message"].startswith(f"Auto picked {'+'.join(('Lambertian', *ladder.chosen.lobes))}: ")
+    assert json.loads(auto["options"])["auto"] == {"models": "BlinnPhong,Ward", "split": 20000, "tolerance": 0.05}
+    doc = load(tmp_path / "out" / "fits" / "pvc.xml")
+    k = [f.statistics["batch_key"] for f in doc.fittings].index(auto["key"])
+    stored = load_source(tmp_path / "out" / "fits" / "pvc.xml", fitting=k)
+    assert metric_error(stored, samples, "Ngan") == pytest.approx(auto["error"], rel=1e-6)  # all samples, reread
+    again = run_batch(settings, stream=open(os.devnull, "w"))
+    assert (again.ran, again.skipped) == (0, 2)

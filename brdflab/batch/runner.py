@@ -16,6 +16,8 @@ from brdflab.batch.table import CSV_NAME, PARQUET_NAME, ResultsTable
 from brdflab.batch.tasks import (FitTask, TaskOutcome, base_row, discover_sources, make_tasks, one_line,
                                  options_dict, run_task)
 from brdflab.errors import BRDFLabError
+from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE, validate_tolerance
+from brdflab.models import get_model
 from brdflab.study.workers import ONE_THREAD, core_count  # one BLAS thread per worker; the cores we may use
 
 
@@ -29,6 +31,15 @@ class BatchSettings:
     max_iterations: int = 200
     scheduler: str | None = None  # tcp://host:port of an existing cluster; None: a LocalCluster
     workers: int | None = None  # LocalCluster size; None: one per core
+    auto: bool = False  # also one Auto task per source (the ladder of `brdflab fit --auto`)
+    auto_tolerance: float = DEFAULT_TOLERANCE
+    auto_split: int = DEFAULT_SPLIT
+    auto_models: tuple[str, ...] = ()  # the models Auto's ladder tries; () = every registry model
+
+    def auto_settings(self) -> tuple[tuple[str, object], ...] | None:
+        if not self.auto:
+            return None
+        return (("models", ",".join(self.auto_models)), ("split", self.auto_split), ("tolerance", self.auto_tolerance))
 
 
 @dataclass
@@ -47,8 +58,14 @@ def validate(settings: BatchSettings) -> None:
     """Bad options fail before any cluster starts."""
     from brdflab.fitting.lm import material_from_lobes
 
-    if not settings.lobe_sets:
-        raise BRDFLabError("name at least one lobe set (--lobes A,B,...)")
+    if not settings.lobe_sets and not settings.auto:
+        raise BRDFLabError("name at least one lobe set (--lobes A,B,...) or --auto")
+    if settings.auto:
+        validate_tolerance(settings.auto_tolerance)
+        for name in settings.auto_models:
+            get_model(name)  # an unknown model fails before any cluster starts
+    elif settings.auto_models:
+        raise BRDFLabError("--models applies to --auto")
     for lobes in settings.lobe_sets:
         if not lobes:
             raise BRDFLabError("an empty --lobes")
@@ -156,7 +173,8 @@ def run_batch(settings: BatchSettings, stream=None) -> BatchSummary:
     t0 = time.perf_counter()
     options = options_dict(settings.metric, settings.max_iterations)
     lobe_sets = list(dict.fromkeys(settings.lobe_sets))  # a set named twice is one task per source
-    tasks = make_tasks(discover_sources(settings.sources), lobe_sets, settings.combination, options)
+    tasks = make_tasks(discover_sources(settings.sources), lobe_sets, settings.combination, options,
+                       settings.auto_settings())
     settings.out.mkdir(parents=True, exist_ok=True)
     recorder = Recorder(settings.out, tasks, lambda text: print(f"brdflab batch: warning: {text}", file=stream))
     pending = [t for t in tasks if not recorder.table.is_done(t.key, t.sha256)]

@@ -24,23 +24,29 @@ FIT_EXTENSIONS = (*READERS, ".xml")  # every measured format the lab reads, and 
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
 
 
+AUTO_LABEL = "auto"  # the lobes column of an Auto task (the pick is in its parameters and message)
+
+
 @dataclass(frozen=True)
 class FitTask:
-    """The inputs of one fit: a source file (and its sha256), a lobe set and the fit options."""
+    """The inputs of one fit: a source file (and its sha256), a lobe set (or Auto's ladder,
+    with its tolerance and split) and the fit options."""
 
     source: str  # absolute path
     sha256: str
-    lobes: tuple[str, ...]
+    lobes: tuple[str, ...]  # empty for an Auto task
     combination: str  # Linear | Fixed
     options: dict  # every FitOptions field
+    auto: tuple[tuple[str, object], ...] | None = None  # Auto's settings (models, split, tolerance)
 
     @property
     def lobe_label(self) -> str:
-        return ",".join(self.lobes)
+        return AUTO_LABEL if self.auto is not None else ",".join(self.lobes)
 
     @property
     def options_json(self) -> str:
-        return json.dumps({"combination": self.combination, **self.options}, sort_keys=True)
+        auto = {"auto": dict(self.auto)} if self.auto is not None else {}
+        return json.dumps({"combination": self.combination, **self.options, **auto}, sort_keys=True)
 
     @property
     def key(self) -> str:
@@ -123,12 +129,40 @@ def restore_malloc_reuse() -> bool:
     return bool(mallopt(M_MMAP_THRESHOLD, 32 << 20)) and bool(mallopt(M_TRIM_THRESHOLD, 64 << 20))
 
 
-def run_task(task: FitTask) -> TaskOutcome:
-    """Load the source, fit the lobe set on all its samples, and return the row."""
-    restore_malloc_reuse()
+def _fit_lobes(task: FitTask, source):
+    """The lobe set fitted on every sample: (its fit, its <Fitting>, its error on all samples,
+    the message, seconds)."""
     from brdflab.fitting.lm import fit, material_from_lobes
     from brdflab.fitting.samples import samples_of
     from brdflab.fitting.stored import fitting_of
+
+    start = material_from_lobes(list(task.lobes), task.combination, source.n_channels)
+    result = fit(start, samples_of(source), fit_options(task.options))
+    return result, fitting_of(result), result.error, result.message, result.seconds
+
+
+def _fit_auto(task: FitTask, source):
+    """Auto's ladder on its split of the samples (as `brdflab fit --auto`); the pick is then
+    scored on every sample of the source, like every other row of the table."""
+    from brdflab.fitting.auto import auto_fit, chosen_fit, chosen_fitting
+    from brdflab.fitting.metrics import metric_error
+    from brdflab.fitting.samples import samples_of
+
+    settings = dict(task.auto)
+    samples = samples_of(source)
+    ladder = auto_fit(samples, settings["tolerance"], task.options["metric"], task.combination,
+                      split=int(settings["split"]), models=settings["models"].split(",") if settings["models"] else None,
+                      options=fit_options(task.options))
+    result = chosen_fit(ladder)
+    picked = "+".join(("Lambertian", *ladder.chosen.lobes))
+    return (result, chosen_fitting(ladder), metric_error(result.material, samples, task.options["metric"]),
+            f"Auto picked {picked}: {ladder.reason}", ladder.seconds)
+
+
+def run_task(task: FitTask) -> TaskOutcome:
+    """Load the source, fit the lobe set (or climb Auto's ladder), and return the row; its
+    error is on all samples of the source."""
+    restore_malloc_reuse()
     from brdflab.sources.files import is_xml, load_source
 
     t0 = time.perf_counter()
@@ -138,17 +172,16 @@ def run_task(task: FitTask) -> TaskOutcome:
         if file_sha256(path) != task.sha256:
             raise BRDFLabError("the file changed or differs on this worker (sha256 mismatch)", path)
         source = load_source(path)
-        start = material_from_lobes(list(task.lobes), task.combination, source.n_channels)
-        result = fit(start, samples_of(source), fit_options(task.options))
+        result, fitting, error, message, seconds = (_fit_auto if task.auto is not None else _fit_lobes)(task, source)
     except Exception as e:  # a bad file or a failed fit is a row, not the end of the batch
         row.update(error=float("nan"), parameters="", seconds=time.perf_counter() - t0, iterations=0,
                    evaluations=0, status="failed", message=one_line(e))
         return TaskOutcome(row)
-    row.update(error=float(result.error), parameters=json.dumps(result.material.describe()["lobes"]),
-               seconds=float(result.seconds), iterations=int(result.iterations),
-               evaluations=int(result.evaluations), status=result.status, message=result.message)
+    row.update(error=float(error), parameters=json.dumps(result.material.describe()["lobes"]),
+               seconds=float(seconds), iterations=int(result.iterations),
+               evaluations=int(result.evaluations), status=result.status, message=message)
     source_type = None if is_xml(path) else getattr(source, "source_type", None)
-    return TaskOutcome(row, fitting_of(result), source_type)
+    return TaskOutcome(row, fitting, source_type)
 
 
 def discover_sources(paths: list[Path]) -> list[Path]:
@@ -168,5 +201,13 @@ def discover_sources(paths: list[Path]) -> list[Path]:
     return unique
 
 
-def make_tasks(sources: list[Path], lobe_sets: list[tuple[str, ...]], combination: str, options: dict) -> list[FitTask]:
-    return [FitTask(str(s), file_sha256(s), lobes, combination, options) for s in sources for lobes in lobe_sets]
+def make_tasks(sources: list[Path], lobe_sets: list[tuple[str, ...]], combination: str, options: dict,
+               auto: tuple[tuple[str, object], ...] | None = None) -> list[FitTask]:
+    """One task per (source, lobe set), and per source one Auto task when `auto` is given."""
+    tasks = []
+    for s in sources:
+        sha = file_sha256(s)
+        tasks += [FitTask(str(s), sha, lobes, combination, options) for lobes in lobe_sets]
+        if auto is not None:
+            tasks.append(FitTask(str(s), sha, (), combination, options, auto))
+    return tasks
