@@ -117,9 +117,6 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
-    import signal
-    import threading
-
     from brdflab.fitting.lm import FitOptions, fit
     from brdflab.io.atomic import check_writable
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
