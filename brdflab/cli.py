@@ -404,7 +404,10 @@ def cmd_study(args: argparse.Namespace) -> int:
     from brdflab.study.framework import StudyContext, run_study, stderr_progress
 
     out = ensure_folder(args.out)  # before minutes of measuring
-    result = run_study(out, StudyContext(quick=args.quick, progress=stderr_progress), args.part or None)
+    deadline = None if args.stop_after is None else time.monotonic() + 60.0 * args.stop_after
+    context = StudyContext(quick=args.quick, progress=stderr_progress, fresh=args.fresh,
+                           cancelled=lambda: deadline is not None and time.monotonic() > deadline)
+    result = run_study(out, context, args.part or None)
     files = [f for charts in result.charts.values() for f in charts]
     lines = [f"{name:<12} {result.seconds[name]:7.1f} s  {', '.join(charts)}" for name, charts in result.charts.items()]
     _emit(args, {"out": str(out), "files": ["study.json", *files], "seconds": result.seconds, "charts": result.charts},
@@ -683,7 +686,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="small sizes and test matrices (minutes, as CI runs it)")
     p.add_argument("--part", action="append", metavar="PART",
                    help="run only this part (repeatable; default: all; an unknown name lists the parts)")
-    p.add_argument("--out", required=True, help="folder for study.json and the charts (created if missing)")
+    p.add_argument("--out", required=True, help="folder for study.json and the charts (created if missing); "
+                   "fits measured by an earlier run into it are kept, and only the missing ones fitted")
+    p.add_argument("--fresh", action="store_true", help="measure every fit again, whatever OUT holds")
+    p.add_argument("--stop-after", type=int_in(0, 100_000, "a number of minutes"), metavar="MINUTES",
+                   help="start no new measurement after MINUTES and draw the charts from what is done "
+                        "(run again into OUT to go on)")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_study)
     return parser

@@ -34,10 +34,12 @@ def needs_shared(*parts):
 @pytest.fixture(scope="session")
 def quick_study(tmp_path_factory):
     """`brdflab study --quick` run once for the session, as CI and a user run it (a subprocess
-    from another folder): (its output folder, its --json payload, study.json)."""
+    from another folder): (its output folder, its --json payload, study.json with its rows)."""
     import json
     import subprocess
     import sys
+
+    from brdflab.study.framework import read_study
 
     work = tmp_path_factory.mktemp("quick-study")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -45,4 +47,4 @@ def quick_study(tmp_path_factory):
                          cwd=work, env=env, capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stderr[-2000:]
     out = work / "study"
-    return out, json.loads(run.stdout), json.loads((out / "study.json").read_text())
+    return out, json.loads(run.stdout), read_study(out)

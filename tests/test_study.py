@@ -104,6 +104,15 @@ def test_study_quick_runs_every_part_from_another_folder(quick_study):
 
 
 @needs_shared("merl_slices")
+def test_stop_after_starts_no_fit_past_its_time_and_says_how_to_go_on(tmp_path, capsys):
+    assert main(["study", "--quick", "--part", "fitting", "--stop-after", "0", "--out", str(tmp_path), "--json"]) == 0
+    err = capsys.readouterr().err
+    assert "fitting: stopped with 0 of " in err and "run again into the same folder to go on" in err
+    study = json.loads((tmp_path / "study.json").read_text())["parts"]["fitting"]
+    assert study["fits_done"] == 0 < study["fits_planned"]
+
+
+@needs_shared("merl_slices")
 def test_sigterm_stops_the_study_and_its_worker_processes(tmp_path):
     """`kill` (SIGTERM) of a study that is fitting on a process pool: one line, exit status
     143, and no worker process left fitting on its own."""

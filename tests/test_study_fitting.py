@@ -1,6 +1,8 @@
 """`brdflab study` parts `fitting` (error against time) and `stability` (LM over starts)."""
 
 
+import json
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -12,7 +14,7 @@ from brdflab.models import model_names
 from brdflab.sources.measured import read_slice
 from brdflab.study import fitting
 from brdflab.study.fit_jobs import FitJob, material_of, run_job
-from brdflab.study.framework import StudyContext, check_finite
+from brdflab.study.framework import StudyContext, check_finite, journal_path, read_study, run_study
 from brdflab.study.pareto import enough_point, pareto_front
 from brdflab.study.stability import cell_summary, starts_of
 
@@ -44,23 +46,22 @@ def test_no_point_dominates_a_front_point(points):
         assert np.any((cost[front] <= cost[i]) & (error[front] <= error[i]))
 
 
-def test_the_full_design_covers_every_slice_and_model():
+def test_the_full_design_is_every_family_at_every_size_on_every_slice():
     slices = [f"m{k:02d}" for k in range(31)]
     plan = fitting.design(slices, fitting.FULL)
-    assert len(plan) == len(set(plan))
-    core = {(s, f) for s, f, size in plan if size == fitting.FULL.core_size}
-    assert core == {(s, f) for s in slices for f in fitting.families(model_names())}  # every family everywhere
+    assert len(plan) == len(set(plan)) == 31 * 62 * 5
+    assert set(plan) == {(s, f, size) for s in slices for f in fitting.families(model_names())
+                         for size in (fitting.FULL.sizes if f.combination == "Linear" else fitting.FULL.fixed_sizes)}
     quick = {(s, f) for s, f, size in fitting.design(slices, fitting.QUICK) if size == fitting.QUICK.core_size}
     assert {f for _, f in quick if len({s for s, g in quick if g == f}) == len(slices)} == \
         {f for f in fitting.families(list(fitting.QUICK.models)) if f.basic}  # quick: one lobe, Linear
-    # every family of every model, at every size of its combination, on one slice
-    sampled = {(f, size) for _, f, size in plan}
-    for family in fitting.families(model_names()):
-        sizes = fitting.FULL.sizes if family.combination == "Linear" else fitting.FULL.fixed_sizes
-        assert {(family, size) for size in sizes} <= sampled
-    # a model's families share one slice, and the models spread over the list
+
+
+def test_a_sampled_tier_on_one_slice_per_model_spreads_the_models():
+    slices = [f"m{k:02d}" for k in range(31)]
+    plan = fitting.design(slices, fitting.Matrix(tuple(model_names()), 20_000, (5_000, None), (None,)))
     homes = {m: {s for s, f, size in plan if f.model == m and size is None} for m in model_names()}
-    assert all(len(h) == 1 for h in homes.values())
+    assert all(len(h) == 1 for h in homes.values())  # a model's families share one slice
     assert len(set.union(*homes.values())) == len(model_names())
 
 
@@ -143,3 +144,56 @@ def test_a_scoped_run_fits_the_current_source_in_this_process(tmp_path, monkeypa
         ("Lambertian Linear", 2000), ("Lambertian Fixed", 2000), ("1×BlinnPhong Linear", 2000),
         ("2×BlinnPhong Linear", 2000), ("1×BlinnPhong Fixed", 2000)}
     assert fitting.draw(numbers, tmp_path) == ["fitting_pareto_materials_1.png", "fitting_pareto_pooled.png"]
+
+
+@pytest.fixture
+def tiny_full_run(monkeypatch):
+    """The unscoped fitting part made tiny (5 fits of 2,000 samples on blue-fabric, in this
+    process): what `brdflab study --part fitting --out DIR` runs, resumable."""
+    monkeypatch.setattr(fitting, "QUICK", fitting.Matrix(("Lambertian", "BlinnPhong"), 2_000, (2_000,), (2_000,),
+                                                         two_fixed=False))
+    monkeypatch.setattr(fitting, "QUICK_SLICES", ("blue-fabric",))
+    monkeypatch.setattr(fitting, "core_count", lambda: 1)
+    return lambda out, **kw: run_study(out, StudyContext(quick=True, **kw), ["fitting"]).numbers["fitting"]
+
+
+def _by_key(rows):
+    return {(r["material"], r["family"], r["size"]): r for r in rows}
+
+
+@needs_shared("merl_slices", "blue-fabric.slice")
+def test_a_run_into_the_same_folder_fits_only_what_is_missing(tmp_path, tiny_full_run):
+    first = tiny_full_run(tmp_path)
+    assert first["fits_planned"] == first["fits_done"] == first["fits_this_run"] == 5
+    stored = read_study(tmp_path)["parts"]["fitting"]  # its rows come back from fitting_rows.jsonl.gz
+    assert "rows" not in json.loads((tmp_path / "study.json").read_text())["parts"]["fitting"]
+    assert _by_key(stored["rows"]) == _by_key(first["rows"])
+    assert not journal_path(tmp_path, "fitting").exists()
+
+    # a run killed after two fits: no new study.json, a journal with two rows and a torn line
+    (tmp_path / "study.json").unlink()
+    kept = first["rows"][:2]
+    journal_path(tmp_path, "fitting").write_text("".join(json.dumps(r) + "\n" for r in kept)
+                                                 + '{"material": "blue-fa')
+    second = tiny_full_run(tmp_path)
+    assert (second["fits_this_run"], second["fits_done"]) == (3, 5)
+    again = _by_key(second["rows"])
+    for r in kept:  # kept as measured, not fitted again
+        assert again[(r["material"], r["family"], r["size"])]["seconds"] == r["seconds"]
+    assert not journal_path(tmp_path, "fitting").exists()
+
+    third = tiny_full_run(tmp_path)
+    assert third["fits_this_run"] == 0 and _by_key(third["rows"]) == _by_key(second["rows"])
+    assert tiny_full_run(tmp_path, fresh=True)["fits_this_run"] == 5
+
+
+@needs_shared("merl_slices", "blue-fabric.slice")
+def test_a_stopped_run_draws_what_it_has_and_the_next_goes_on(tmp_path, tiny_full_run):
+    journal = journal_path(tmp_path, "fitting")
+    stop = lambda: journal.exists() and len(journal.read_text().splitlines()) >= 2  # noqa: E731
+    first = tiny_full_run(tmp_path, cancelled=stop)
+    assert (first["fits_done"], first["fits_planned"]) == (2, 5)
+    assert (tmp_path / "fitting_pareto_pooled.png").is_file()
+    second = tiny_full_run(tmp_path)
+    assert (second["fits_this_run"], second["fits_done"]) == (3, 5)
+    assert set(_by_key(second["rows"])) >= set(_by_key(first["rows"]))

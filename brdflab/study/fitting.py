@@ -6,18 +6,21 @@ The error is always the Ngan metric of the result on ALL samples of the source, 
 the fit saw; the time is the fit's wall time (the fitter's defaults: restarts on a
 60,000-sample coarse subset, then a polish on the fitted set).
 
-The full matrix (16 models × 2 lobe counts × 2 combinations × 5 sample sets × 31 slices,
-about 9,600 fits of 0.05–200 CPU s, some 32 CPU-hours) does not fit a run on two cores, so a
-run fits a `Matrix` in two tiers (`design`):
-- core: on every slice, on a `core_size` subset, every family (`every_family_core`: the
-  full run) or every model with one lobe and the Lambertian alone, Linear (the quick and
-  scoped runs) — every family on every material, the reference of the pooled chart (the
-  subset chart shows what fitting a subset costs in error);
-- sampled: every family (model × lobe count × combination) at every size of `sizes`
-  (Linear) or `fixed_sizes` (Fixed), all samples included, on `per_model` slices; all
-  families of a model share their slices (a material's chart shows that model's whole
-  story: lobes, combination, subset curve), and the models' slices spread evenly over
-  the sorted list.
+The full matrix (`FULL`: 62 families — the Lambertian alone, every other model with one and
+two lobes, Linear and Fixed — at 5 k, 20 k, 50 k, 200 k and all samples on each of the 31
+slices: 9,610 fits of 0.1–100 CPU s, about 11 CPU-hours) takes longer than one sitting on a
+small machine, so the part resumes: every finished fit is appended to a journal in the output
+folder, and a later run into the same folder (`earlier_rows`) fits only what is missing;
+`brdflab study --stop-after MINUTES` stops starting fits and draws the charts from what is
+done. Fits run slice by slice, so a stopped run leaves whole materials.
+
+Smaller matrices fit two tiers (`design`):
+- core: on every slice, on a `core_size` subset, every family (`every_family_core`) or every
+  model with one lobe and the Lambertian alone, Linear (the quick and scoped runs);
+- sampled: every family at every size of `sizes` (Linear) or `fixed_sizes` (Fixed), all
+  samples included, on `per_model` slices (None: all); all families of a model share their
+  slices (a material's chart shows that model's whole story: lobes, combination, subset
+  curve), and the models' slices spread evenly over the sorted list.
 A scoped run (the GUI's current source) fits a small matrix on that source alone.
 """
 
@@ -31,7 +34,7 @@ from brdflab.errors import BRDFLabError
 from brdflab.models import model_names
 from brdflab.study.fit_jobs import FitJob, register_source, run_job
 from brdflab.study.fitting_charts import LESSON, draw, summarise
-from brdflab.study.framework import Part, StudyContext, register
+from brdflab.study.framework import Part, StudyContext, earlier_rows, journal_writer, register
 from brdflab.study.workers import core_count, run_jobs
 
 QUICK_SLICES = ("blue-fabric", "nickel")
@@ -45,7 +48,7 @@ class Matrix:
     core_size: int | None
     sizes: tuple[int | None, ...]  # the sampled tier's Linear families
     fixed_sizes: tuple[int | None, ...]  # its Fixed families
-    per_model: int = 1
+    per_model: int | None = 1  # None: every slice
     two_fixed: bool = True  # Fixed with two lobes (3 × 2 per-channel lobes)
     every_family_core: bool = False  # every family on every slice (else one lobe, Linear)
 
@@ -54,11 +57,9 @@ class Matrix:
         return self.every_family_core or family.basic
 
 
-# the full run: every family on every slice at 20 k samples (1,922 fits), then on one slice
-# per model every family at 5 k, 50 k, 200 k and all samples; about 2,170 fits and two
-# hours of CPU (docs/study.md)
+# the full run: every family at every size on every slice (9,610 fits, docs/study.md)
 FULL = Matrix(tuple(model_names()), 20_000, (5_000, 20_000, 50_000, 200_000, None),
-              (5_000, 20_000, 50_000, 200_000, None), every_family_core=True)
+              (5_000, 20_000, 50_000, 200_000, None), per_model=None, every_family_core=True)
 QUICK = Matrix(("Lambertian", "BlinnPhong", "Ward"), 10_000, (2_000, 10_000, None), (2_000, 10_000))
 SCOPED = Matrix(("Lambertian", "BlinnPhong", "CookTorrance", "Ward", "LafortuneIso"), None,
                 (5_000, 50_000, None), (50_000,), two_fixed=False)
@@ -105,11 +106,12 @@ def design(slices: list[str], matrix: Matrix) -> list[tuple[str, Family, int | N
         if matrix.is_core(family):
             for s in slices:
                 plan[(s, family, matrix.core_size)] = None
-    stride = max(1, len(slices) // max(1, matrix.per_model))
+    per_model = len(slices) if matrix.per_model is None else min(matrix.per_model, len(slices))
+    stride = max(1, len(slices) // max(1, per_model))
     model_order = list(dict.fromkeys(f.model for f in fams))
     for family in fams:  # a model's families share slices: its whole story on one material
         first = model_order.index(family.model) * len(slices) // len(model_order)
-        chosen = {slices[(first + j * stride) % len(slices)] for j in range(min(matrix.per_model, len(slices)))}
+        chosen = {slices[(first + j * stride) % len(slices)] for j in range(per_model)}
         for s in sorted(chosen):
             for size in matrix.sizes if family.combination == "Linear" else matrix.fixed_sizes:
                 plan[(s, family, size)] = None
@@ -134,7 +136,7 @@ def shared_slices(context: StudyContext) -> dict[str, str]:
 
 
 def _expected_cost(job: FitJob) -> float:
-    """A rough relative cost, to start the longest fits first (the pool then balances)."""
+    """A rough relative cost, to start a slice's longest fits first (the pool then balances)."""
     samples = 1_100_000 if job.size is None else job.size
     fixed = 3 if job.combination == "Fixed" else 1
     return (len(job.lobes) + 1) * fixed * (60_000 + samples)
@@ -164,24 +166,42 @@ def measure(context: StudyContext) -> dict:
                    tag={"material": s, "model": f.model, "lobes_count": f.lobes, "family": f.label,
                         "size": size, "core": matrix.is_core(f) and size == matrix.core_size})
             for s, f, size in plan]
-    jobs.sort(key=_expected_cost, reverse=True)
+    # a scoped run's source lives in this process only: nothing of it to resume
+    earlier = {_key(r): r for r in earlier_rows(context, "fitting")} if source is None else {}
+    kept = [{**earlier[_key(j.tag)], **j.tag} for j in jobs if _key(j.tag) in earlier]
+    order = {s: k for k, s in enumerate(slices)}  # slice by slice, a slice's longest fits first
+    todo = sorted((j for j in jobs if _key(j.tag) not in earlier),
+                  key=lambda j: (order[j.tag["material"]], -_expected_cost(j)))
     started = time.time()
     load_before = _load_average()
+    if kept:
+        context.progress(f"fitting: {len(kept)} of {len(jobs)} fits measured by an earlier run here, "
+                         f"{len(todo)} to go (--fresh measures all again)")
 
     def progress(done: int, total: int) -> None:
         if done % max(1, total // 20) == 0 or done == total:
             context.progress(f"fitting: {done}/{total} fits, {time.time() - started:.0f} s")
 
-    done = run_jobs(run_job, jobs, workers, progress, context.cancelled)
+    new = run_jobs(run_job, todo, workers, progress, context.cancelled,
+                   on_result=journal_writer(context, "fitting") if source is None else None)
+    done = kept + new
+    if len(done) < len(jobs):
+        context.progress(f"fitting: stopped with {len(done)} of {len(jobs)} fits; run again into the same "
+                         "folder to go on")
     rows = [r for r in done if r["error"] is not None]
     return {**summarise(rows, matrix.core_size), "failed": [r for r in done if r["error"] is None], "metric": "Ngan", "workers": workers, "clock": clock,
             "materials": list(slices), "models": list(matrix.models), "core_size": matrix.core_size,
             "sizes": list(matrix.sizes), "fixed_sizes": list(matrix.fixed_sizes), "per_model": matrix.per_model,
             "every_family_core": matrix.every_family_core,
-            "fits_planned": len(jobs), "fits_done": len(done),
+            "fits_planned": len(jobs), "fits_done": len(done), "fits_this_run": len(new),
             "wall_s": time.time() - started, "load_average": {"before": load_before, "after": _load_average()},
             "rows": rows}
 
 
+def _key(row: dict) -> tuple:
+    """What identifies one fit of the matrix: material, family and sample set."""
+    return row["material"], row["family"], row["size"]
+
+
 register(Part("fitting", "fitting: error on all samples against fit time, per model, lobes, combination and subset",
-              measure, draw, lesson=LESSON))
+              measure, draw, lesson=LESSON, rows_apart=True))

@@ -9,6 +9,7 @@ A part may be scoped to one material and one map (the GUI's current scene) throu
 
 from __future__ import annotations
 
+import gzip
 import importlib
 import io
 import json
@@ -44,7 +45,9 @@ def stderr_progress(message: str) -> None:
 class StudyContext:
     """What a part measures on. `quick`: small sizes (CI, the GUI). `material`, `source`,
     `environment`: restrict the part to this scene (None: the part's own test matrix).
-    `cancelled`: polled between steps; a part returns what it has when it turns true."""
+    `cancelled`: polled between steps; a part returns what it has when it turns true.
+    `out_dir` (set by `run_study`): where a resumable part finds what an earlier run
+    measured there, and keeps its journal; `fresh`: measure everything again."""
 
     quick: bool = False
     progress: Progress = quiet
@@ -52,6 +55,8 @@ class StudyContext:
     source: object | None = None
     environment: object | None = None
     cancelled: Callable[[], bool] = lambda: False
+    out_dir: Path | None = None
+    fresh: bool = False
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,7 @@ class Part:
     measure: Callable[[StudyContext], dict]
     draw: Callable[[dict, Path], list[str]]
     lesson: str = ""  # what the charts teach, for the README and the GUI
+    rows_apart: bool = False  # its "rows" go to ROWS_FILE (gzip JSON lines), not study.json
 
 
 PARTS: dict[str, Part] = {}
@@ -95,6 +101,7 @@ def run_study(out_dir: Path, context: StudyContext, only: list[str] | None = Non
     if unknown:
         raise BRDFLabError(f"unknown study part {', '.join(unknown)} (parts: {', '.join(parts)})")
     result = StudyResult()
+    context.out_dir = out_dir
     for name in names:
         part = parts[name]
         context.progress(f"{part.title}")
@@ -104,10 +111,78 @@ def run_study(out_dir: Path, context: StudyContext, only: list[str] | None = Non
         result.numbers[name] = numbers
         result.charts[name] = part.draw(numbers, out_dir)
         result.seconds[name] = time.perf_counter() - t0
+    stored = dict(result.numbers)
+    for name in names:
+        if parts[name].rows_apart:
+            lines = "".join(json.dumps(row) + "\n" for row in stored[name]["rows"])
+            atomic_write(out_dir / ROWS_FILE.format(part=name), gzip.compress(lines.encode(), mtime=0))
+            stored[name] = {k: v for k, v in stored[name].items() if k != "rows"} | \
+                {"rows_file": ROWS_FILE.format(part=name)}
     payload = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine()},
-               "quick": context.quick, "seconds": result.seconds, "charts": result.charts, "parts": result.numbers}
+               "quick": context.quick, "seconds": result.seconds, "charts": result.charts, "parts": stored}
     atomic_write(out_dir / "study.json", json.dumps(payload, indent=1).encode())
+    for name in names:  # its rows are in study.json or ROWS_FILE now
+        journal_path(out_dir, name).unlink(missing_ok=True)
     return result
+
+
+ROWS_FILE = "{part}_rows.jsonl.gz"
+
+
+def read_study(out_dir: Path) -> dict:
+    """study.json of `out_dir` with every part's rows in place (read back from ROWS_FILE
+    where the part keeps them apart); {} when there is none."""
+    path = out_dir / "study.json"
+    if not path.is_file():
+        return {}
+    try:
+        study = json.loads(path.read_text())
+        for numbers in study.get("parts", {}).values():
+            if "rows_file" in numbers:
+                text = gzip.decompress((out_dir / numbers.pop("rows_file")).read_bytes()).decode()
+                numbers["rows"] = [json.loads(line) for line in text.splitlines()]
+    except (OSError, ValueError, EOFError) as e:
+        raise BRDFLabError(f"{path}: cannot read an earlier study's results ({e}); pass --fresh to measure again")
+    return study
+
+
+def journal_path(out_dir: Path, part: str) -> Path:
+    """A resumable part's journal: one JSON line per finished measurement, while it runs."""
+    return out_dir / f"{part}.journal.jsonl"
+
+
+def earlier_rows(context: StudyContext, part: str) -> list[dict]:
+    """The rows a resumable part measured in earlier runs into `context.out_dir`: those in
+    its study.json (a finished or stopped run), then those in its journal (a run that was
+    killed; a torn last line is skipped). [] when `context.fresh`."""
+    if context.fresh or context.out_dir is None:
+        return []
+    numbers = read_study(context.out_dir).get("parts", {}).get(part, {})
+    rows = list(numbers.get("rows", [])) + list(numbers.get("failed", []))
+    journal = journal_path(context.out_dir, part)
+    if journal.is_file():
+        for line in journal.read_text().splitlines():
+            try:
+                rows.append(json.loads(line))
+            except ValueError:
+                continue
+    return rows
+
+
+def journal_writer(context: StudyContext, part: str) -> Callable[[dict], None]:
+    """A function that appends one finished row to the part's journal (flushed at once, so
+    that a killed run loses only the measurements under way)."""
+    if context.out_dir is None:
+        return lambda row: None
+    path = journal_path(context.out_dir, part)
+    if context.fresh:
+        path.unlink(missing_ok=True)
+
+    def write(row: dict) -> None:
+        with path.open("a") as f:
+            f.write(json.dumps(row) + "\n")
+
+    return write
 
 
 def measured_slice() -> tuple[Path | None, str]:

@@ -2,8 +2,9 @@
 per worker (the fitter holds the GIL, so processes, not threads, give parallelism; see
 docs/batch.md), or in this process when one worker is asked for (CI, the GUI).
 
-Results come back in submission order; between results `cancelled` is polled, and a
-cancelled run returns the results it has (the rest are dropped).
+Results come back in the order they finish (every result carries what it measured, so a
+caller groups by its tags); between results `cancelled` is polled, and a cancelled run
+returns the results it has (fits still running are dropped).
 """
 
 from __future__ import annotations
@@ -47,6 +48,8 @@ def run_jobs(fn: Callable, jobs: Sequence, workers: int, progress: Callable[[int
     `progress(done, total)` after each. Stops early (returning what is done) once
     `cancelled()` is true."""
     results = []
+    if cancelled():
+        return results
     if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
             if cancelled():
@@ -59,7 +62,7 @@ def run_jobs(fn: Callable, jobs: Sequence, workers: int, progress: Callable[[int
     with _one_blas_thread():
         pool = get_context("spawn").Pool(min(workers, len(jobs)))
     try:
-        for row in pool.imap(fn, jobs, chunksize=1):
+        for row in pool.imap_unordered(fn, jobs, chunksize=1):
             results.append(row)
             if on_result is not None:
                 on_result(row)
