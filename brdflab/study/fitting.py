@@ -1,10 +1,11 @@
-"""Study part `fitting`: the fit's error against its wall time, for every registry model
+"""Study part `fitting`: the fit's error against its time, for every registry model
 with one and two lobes (after a Lambertian), Linear and Fixed, fitted on all samples and
 on stratified subsets, on the shared MERL slices.
 
 The error is always the Ngan metric of the result on ALL samples of the source, whatever
-the fit saw; the time is the fit's wall time (the fitter's defaults: restarts on a
-60,000-sample coarse subset, then a polish on the fitted set).
+the fit saw; the time is the fit's CPU time in a one-thread worker (wall time in a scoped
+run, `fit_jobs.run_job`), with the fitter's defaults: restarts on a 60,000-sample coarse
+subset, then a polish on the fitted set.
 
 The full matrix (`FULL`: 62 families — the Lambertian alone, every other model with one and
 two lobes, Linear and Fixed — at 5 k, 20 k, 50 k, 200 k and all samples on each of the 31
