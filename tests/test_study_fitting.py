@@ -175,14 +175,17 @@ def test_a_run_into_the_same_folder_fits_only_what_is_missing(tmp_path, tiny_ful
     kept = first["rows"][:2]
     journal_path(tmp_path, "fitting").write_text("".join(json.dumps(r) + "\n" for r in kept)
                                                  + '{"material": "blue-fa')
-    second = tiny_full_run(tmp_path)
+    second = fitting.measure(StudyContext(quick=True, out_dir=tmp_path))  # the part alone: its journal stays
     assert (second["fits_this_run"], second["fits_done"]) == (3, 5)
     again = _by_key(second["rows"])
     for r in kept:  # kept as measured, not fitted again
         assert again[(r["material"], r["family"], r["size"])]["seconds"] == r["seconds"]
-    assert not journal_path(tmp_path, "fitting").exists()
+    lines = journal_path(tmp_path, "fitting").read_text().splitlines()
+    assert len(lines) == 2 + 1 + 3 and lines[2] == '{"material": "blue-fa'  # the new rows start lines of their own
+    assert _by_key(json.loads(line) for line in lines[3:]) == _by_key(second["rows"][2:])
 
     third = tiny_full_run(tmp_path)
+    assert not journal_path(tmp_path, "fitting").exists()
     assert third["fits_this_run"] == 0 and _by_key(third["rows"]) == _by_key(second["rows"])
     assert tiny_full_run(tmp_path, fresh=True)["fits_this_run"] == 5
 

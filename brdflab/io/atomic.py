@@ -1,5 +1,8 @@
 """Atomic saves: every file brdflab writes goes through here.
 
+One exception to the rename below: a journal (`append_line`), which grows a line at a time
+while long work runs; its reader skips a torn last line.
+
 A unique temporary file in the target folder is written, fsync'ed and renamed over the
 target (os.replace), so a crash, a full disk or a second writer never leaves a half-written
 or unreadable file: readers see the old file or the new one. Problems with the target
@@ -88,6 +91,19 @@ def atomic_write(path: str | os.PathLike, data: bytes) -> None:
     path = Path(path)
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
+
+
+def append_line(path: str | os.PathLike, line: str) -> None:
+    """Append one line (newline added) to a journal file, flushed to the disk at once, so that
+    a killed run loses only the line it was writing."""
+    path = Path(path)
+    try:
+        with path.open("a", encoding="utf-8") as f:
+            f.write(line + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+    except OSError as e:
+        raise BRDFLabError(f"{path}: {_problem(e, path)}") from None
 
 
 def check_writable(path: str | os.PathLike) -> None:

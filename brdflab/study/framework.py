@@ -172,17 +172,16 @@ def earlier_rows(context: StudyContext, part: str) -> list[dict]:
 def journal_writer(context: StudyContext, part: str) -> Callable[[dict], None]:
     """A function that appends one finished row to the part's journal (flushed at once, so
     that a killed run loses only the measurements under way)."""
+    from brdflab.io.atomic import append_line
+
     if context.out_dir is None:
         return lambda row: None
     path = journal_path(context.out_dir, part)
     if context.fresh:
         path.unlink(missing_ok=True)
-
-    def write(row: dict) -> None:
-        with path.open("a") as f:
-            f.write(json.dumps(row) + "\n")
-
-    return write
+    elif path.is_file() and not path.read_bytes().endswith(b"\n"):
+        append_line(path, "")  # end a killed run's torn line, so that the next row is a line of its own
+    return lambda row: append_line(path, json.dumps(row))
 
 
 def measured_slice() -> tuple[Path | None, str]:
