@@ -21,11 +21,11 @@ TIME_LABELS = {"cpu": "fit time (CPU s, one thread)", "wall": "fit wall time (s)
 MARKERS = {(0, "Linear"): "D", (0, "Fixed"): "d", (1, "Linear"): "o", (1, "Fixed"): "s",
            (2, "Linear"): "^", (2, "Fixed"): "v"}
 
-LESSON = ("Two GGX lobes over a Lambertian, Linear, on a 20 k-sample subset is where more stops paying on most "
-          "MERL materials (one GGX lobe, the best single lobe, leaves a median 31 % more error at a third of "
-          "the time); a second lobe pays for the microfacet, Lafortune, Kurt, Ashikhmin–Shirley and "
-          "Ward–Dürer models, the Fixed combination never more than about 1 %, and subsets of 5–200 k "
-          "samples lose well under 1 % against all samples (docs/study.md).")
+LESSON = ("Two GGX lobes over a Lambertian, Linear, fitted on a 5–20 k-sample subset is where more stops paying "
+          "on most MERL materials (one GGX lobe, the best single lobe, leaves a median 31 % more error at a third "
+          "of the time); a second lobe pays for the microfacet, Lafortune, Kurt, Ashikhmin–Shirley and "
+          "Ward–Dürer models, the Fixed combination about 2 % at most, and subsets of 5–200 k samples lose a "
+          "median well under 0.1 % against all samples (docs/study.md).")
 
 
 def with_relative_error(rows: list[dict]) -> list[dict]:
