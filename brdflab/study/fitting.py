@@ -13,7 +13,8 @@ slices: 9,610 fits of up to two CPU minutes each, about 12.4 CPU-hours, docs/stu
 longer than one sitting on a small machine, so the part resumes: every finished fit is
 appended to a journal in the output folder, and a later run into the same folder
 (`earlier_rows`) fits only what is missing; `brdflab study --stop-after MINUTES` stops
-starting fits and draws the charts from what is done. Fits run slice by slice, so a stopped run leaves whole materials.
+starting fits and draws the charts from what is done. Fits run slice by slice, so a
+stopped run leaves whole materials.
 
 Smaller matrices fit two tiers (`design`):
 - core: on every slice, on a `core_size` subset, every family (`every_family_core`) or every
