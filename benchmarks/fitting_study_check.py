@@ -11,17 +11,22 @@ and timed by `time.process_time`, its result scored on all samples.
 
 from __future__ import annotations
 
-import argparse
-import time
-from pathlib import Path
+import os
 
-from brdflab.fitting.lm import FitOptions, fit
-from brdflab.fitting.metrics import grid_error, metric_errors
-from brdflab.fitting.samples import samples_of
-from brdflab.io.resources import shared_data_dir
-from brdflab.sources.measured import read_slice
-from brdflab.study.fit_jobs import FitJob, material_of, start_material
-from brdflab.study.framework import read_study
+# one BLAS thread, as in the study's workers (more would add their spinning to process_time)
+os.environ.update({"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"})
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from brdflab.fitting.lm import FitOptions, fit  # noqa: E402
+from brdflab.fitting.metrics import grid_error, metric_errors  # noqa: E402
+from brdflab.fitting.samples import samples_of  # noqa: E402
+from brdflab.io.resources import shared_data_dir  # noqa: E402
+from brdflab.sources.measured import read_slice  # noqa: E402
+from brdflab.study.fit_jobs import FitJob, material_of, start_material  # noqa: E402
+from brdflab.study.framework import read_study  # noqa: E402
 
 
 def parse_key(text: str) -> tuple[str, str, int | None]:
