@@ -4,8 +4,10 @@ recomputed from its stored rows (not from the summaries the study wrote beside t
     python benchmarks/fitting_study_numbers.py [DIR]     # DIR: docs/study/fitting by default
 
 Prints: coverage (fits, CPU s, which slices are measured whole); per material the cheapest
-fit within 5 % of its best error (the charts' red star); the 20 k pooled view of two and one
-GGX lobes; what a second lobe and the Fixed combination buy; what subsets cost; fit times.
+fit within 5 % of its best error (the charts' red star), and what the Fixed twin of two GGX
+lobes gives where it is the star; the 20 k pooled view of two and one GGX lobes; one GGX
+lobe against the other single lobes; what a second lobe and the Fixed combination buy; what
+subsets cost; fit times.
 """
 
 from __future__ import annotations
@@ -55,12 +57,25 @@ def main(folder: Path) -> None:
 
     print("\n== the star (cheapest within 5 % of the best) per material")
     stars = {m: star(rs) for m, rs in by_material.items()}
+    by_key = {(r["material"], r["size"], r["family"]): r for r in rows}
     print(Counter(s["family"] for s in stars.values()).most_common())
     for m in whole:
         s, best = stars[m], min(r["error"] for r in by_material[m])
         print(f"  {m}: {s['family']} {size_name(s['size'])} {s['seconds']:.2f} s, +{100 * (s['error'] / best - 1):.1f} %")
     sizes = Counter(size_name(stars[m]["size"]) for m in whole)
     print(f"  stars' sample sets on whole slices: {dict(sizes)}")
+    others = defaultdict(list)
+    for m, s in sorted(stars.items()):
+        if not s["family"].startswith("2×CookTorranceGGX"):
+            others[s["family"]].append(m)
+    print(f"  stars on other families: {dict(others)}")
+    twin = [(s, by_key[(m, s["size"], "2×CookTorranceGGX Linear")]) for m, s in stars.items()
+            if s["family"] == "2×CookTorranceGGX Fixed"]
+    if twin:
+        e = np.array([a["error"] / b["error"] for a, b in twin])
+        t = np.array([a["seconds"] / b["seconds"] for a, b in twin])
+        print(f"  where 2×GGX Fixed is the star ({len(twin)}): error / 2×GGX Linear's on the same samples "
+              f"median {np.median(e):.2f} ({e.min():.2f}-{e.max():.2f}), time x{t.min():.1f}-{t.max():.1f}")
 
     print("\n== pooled at 20 k (relative to each material's best 20 k fit)")
     core = [r for r in rows if r["size"] == 20_000]
@@ -79,6 +94,16 @@ def main(folder: Path) -> None:
     single = Counter(min((r for r in core if r["material"] == m and r["lobes_count"] == 1
                           and r["combination"] == "Linear"), key=lambda r: r["error"])["model"] for m in by_material)
     print(f"  best single Linear lobe at 20 k: {single.most_common(4)}")
+
+    print("\n== one GGX lobe (Linear) against other single lobes at 20 k, same material: median error ratio")
+    for other in ("1×CookTorrance Linear", "1×LafortuneIso Linear", "Lambertian Linear"):
+        ratio = [r["error"] / by_key[(r["material"], r["size"], other)]["error"] for r in core
+                 if r["family"] == "1×CookTorranceGGX Linear"]
+        print(f"  against {other}: {np.median(ratio):.2f} ({len(ratio)} pairs)")
+    alone = [m for m, s in stars.items() if s["family"].startswith("1×")]
+    near = [m for m in by_material if any(r["family"] == "1×CookTorranceGGX Linear"
+            and r["error"] <= 1.05 * min(q["error"] for q in by_material[m]) for r in by_material[m])]
+    print(f"  one lobe is the star on {alone}; 1×GGX Linear within 5 % of the best on {near}")
 
     print("\n== what a second lobe (2 vs 1, Linear) and Fixed (vs Linear, 1 lobe) buy: median gain, pairs, time x")
     fits = {(r["material"], r["size"], r["model"], r["lobes_count"], r["combination"]): r for r in rows}
