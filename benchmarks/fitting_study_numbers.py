@@ -12,56 +12,51 @@ subsets cost; fit times.
 
 from __future__ import annotations
 
-import gzip
-import json
 import sys
 from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
 
-FAMILIES_PER_SLICE = 62 * 5
-
-
-def load(folder: Path) -> list[dict]:
-    text = gzip.decompress((folder / "fitting_rows.jsonl.gz").read_bytes()).decode()
-    return [json.loads(line) for line in text.splitlines()]
+from brdflab.study.framework import read_study
 
 
 def size_name(size) -> str:
     return "all" if size is None else f"{size // 1000}k"
 
 
-def star(rows: list[dict]) -> dict:
-    """The cheapest fit within 5 % of the lowest error (ties: the lower error)."""
-    best = min(r["error"] for r in rows)
+def star(rows: list[dict], best: float) -> dict:
+    """The cheapest fit within 5 % of the lowest error `best` (ties: the lower error)."""
     good = [r for r in rows if r["error"] <= 1.05 * best]
     return min(good, key=lambda r: (r["seconds"], r["error"]))
 
 
 def main(folder: Path) -> None:
-    rows = load(folder)
+    numbers = read_study(folder)["parts"]["fitting"]
+    rows = numbers["rows"]  # the fits that ended with an error; those that could not run are in "failed"
+    per_slice = numbers["fits_planned"] // len(numbers["materials"])
     by_material = defaultdict(list)
     for r in rows:
         by_material[r["material"]].append(r)
-    whole = sorted(m for m, rs in by_material.items() if len(rs) == FAMILIES_PER_SLICE)
+    best = {m: min(r["error"] for r in rs) for m, rs in by_material.items()}
+    whole = sorted(m for m, rs in by_material.items() if len(rs) == per_slice)
     print(f"fits {len(rows)}, CPU s {sum(r['seconds'] for r in rows):,.0f}, "
-          f"failed {sum(r['error'] is None for r in rows)}, "
+          f"failed {len(numbers['failed'])}, "
           f"worse than zero {sum(r['error'] >= r['zero_error'] for r in rows)}")
     print(f"whole slices ({len(whole)}): {', '.join(whole)}")
-    partial = {m: len(rs) for m, rs in by_material.items() if 62 < len(rs) < FAMILIES_PER_SLICE}
+    partial = {m: len(rs) for m, rs in by_material.items() if len(numbers["families"]) < len(rs) < per_slice}
     print(f"partial slices: {partial}")
     cost = [sum(r["seconds"] for r in by_material[m]) for m in whole]
     if cost:
         print(f"CPU s per whole slice: {min(cost):,.0f}-{max(cost):,.0f}, mean {np.mean(cost):,.0f}")
 
     print("\n== the star (cheapest within 5 % of the best) per material")
-    stars = {m: star(rs) for m, rs in by_material.items()}
+    stars = {m: star(rs, best[m]) for m, rs in by_material.items()}
     by_key = {(r["material"], r["size"], r["family"]): r for r in rows}
     print(Counter(s["family"] for s in stars.values()).most_common())
     for m in whole:
-        s, best = stars[m], min(r["error"] for r in by_material[m])
-        print(f"  {m}: {s['family']} {size_name(s['size'])} {s['seconds']:.2f} s, +{100 * (s['error'] / best - 1):.1f} %")
+        s = stars[m]
+        print(f"  {m}: {s['family']} {size_name(s['size'])} {s['seconds']:.2f} s, +{100 * (s['error'] / best[m] - 1):.1f} %")
     sizes = Counter(size_name(stars[m]["size"]) for m in whole)
     print(f"  stars' sample sets on whole slices: {dict(sizes)}")
     others = defaultdict(list)
@@ -101,17 +96,16 @@ def main(folder: Path) -> None:
                  if r["family"] == "1×CookTorranceGGX Linear"]
         print(f"  against {other}: {np.median(ratio):.2f} ({len(ratio)} pairs)")
     alone = [m for m, s in stars.items() if s["family"].startswith("1×")]
-    near = [m for m in by_material if any(r["family"] == "1×CookTorranceGGX Linear"
-            and r["error"] <= 1.05 * min(q["error"] for q in by_material[m]) for r in by_material[m])]
+    near = [m for m, rs in by_material.items()
+            if any(r["family"] == "1×CookTorranceGGX Linear" and r["error"] <= 1.05 * best[m] for r in rs)]
     print(f"  one lobe is the star on {alone}; 1×GGX Linear within 5 % of the best on {near}")
 
     print("\n== what a second lobe (2 vs 1, Linear) and Fixed (vs Linear, 1 lobe) buy: median gain, pairs, time x")
-    fits = {(r["material"], r["size"], r["model"], r["lobes_count"], r["combination"]): r for r in rows}
     for model in sorted({r["model"] for r in rows if r["lobes_count"] > 0}):
-        line = []
-        for what, (n, c) in (("second lobe", (2, "Linear")), ("Fixed", (1, "Fixed"))):
-            pairs = [(fits[(m, s, model, 1, "Linear")], r) for (m, s, mo, k, cc), r in fits.items()
-                     if mo == model and (k, cc) == (n, c) and (m, s, model, 1, "Linear") in fits]
+        line, one = [], f"1×{model} Linear"
+        for what, other in (("second lobe", f"2×{model} Linear"), ("Fixed", f"1×{model} Fixed")):
+            pairs = [(by_key[(m, s, one)], r) for (m, s, f), r in by_key.items()
+                     if f == other and (m, s, one) in by_key]
             g = [1 - b["error"] / a["error"] for a, b in pairs]
             t = [b["seconds"] / a["seconds"] for a, b in pairs]
             line.append(f"{what} {100 * np.median(g):+.1f} % (max {100 * max(g):.0f} %, {len(g)} pairs, "
