@@ -9,7 +9,7 @@ subset, then a polish on the fitted set.
 
 The full matrix (`FULL`: 62 families — the Lambertian alone, every other model with one and
 two lobes, Linear and Fixed — at 5 k, 20 k, 50 k, 200 k and all samples on each of the 31
-slices: 9,610 fits of up to three CPU minutes each, about 12.9 CPU-hours, docs/study.md) takes
+slices: 9,610 fits of up to three CPU minutes each, 12.8 CPU-hours measured, docs/study.md) takes
 longer than one sitting on a small machine, so the part resumes: every finished fit is
 appended to a journal in the output folder, and a later run into the same folder
 (`earlier_rows`) fits only what is missing; `brdflab study --stop-after MINUTES` stops
