@@ -12,9 +12,10 @@ import pytest
 from brdflab.cli import main
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
-from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.fitting.metrics import metric_errors
+from brdflab.material.analytic import MAX_SCALE, AnalyticMaterial, Lobe
 from brdflab.sources.measured import MeasuredTable, read_slice, tabulate, write_merl_binary
-from brdflab.fitting.samples import TableSampleSet, analytic_grid, samples_of
+from brdflab.fitting.samples import ArraySampleSet, TableSampleSet, analytic_grid, samples_of
 from brdflab.io.xmlio import load
 from conftest import DATA, needs_shared
 
@@ -265,3 +266,35 @@ def test_the_polish_goes_on_from_what_the_coarse_stage_found():
     lambertian = fit(material_from_lobes(["Lambertian"], "Fixed", 3), samples, options)
     assert result.status == "converged"
     assert result.error <= 1.001 * lambertian.error  # the lobe adds nothing on this paint, but costs nothing
+
+
+def test_fixed_magnitudes_end_within_the_material_cap():
+    """Fixed magnitudes are searched unbounded; a source that asks for more than a material
+    may hold (MAX_SCALE) gets the cap, and the result passes the material's checks."""
+    grid = analytic_grid(AnalyticMaterial("truth", "Linear", 3, [Lobe.create("Lambertian", [0.5, 0.4, 0.3])]), density=8)
+    samples = ArraySampleSet(grid.wi, grid.wo, grid.values * 1e7, grid.weight)  # magnitudes 3e6–5e6 fit best
+    start = material_from_lobes(["Lambertian"], "Fixed", 3)
+    for lobe in start.lobes:
+        lobe.scale = [1e5]
+    result = fit(start, samples, FitOptions(metric="L2", restarts=False, coarse_size=0))
+    assert result.status == "converged" and result.error < metric_errors([start], samples, "L2")[0]
+    magnitudes = [lobe.scale[0] for lobe in result.material.lobes]
+    assert all(0.99 * MAX_SCALE < m <= MAX_SCALE for m in magnitudes), magnitudes
+    result.material.validate()
+
+
+@needs_shared("merl_slices", "ss440.slice")
+def test_a_saved_fixed_fit_loads_again(tmp_path, capsys):
+    """Two Kurt diffuse lobes, Fixed, on the near-mirror ss440: the search switches the lobes
+    off by sending their magnitudes to 1e26. The saved fit used to be refused on loading
+    ('scaling factor 1.14e+26 is above 1e+06'; found by the fitting study, 232 such fits)."""
+    out = tmp_path / "ss440.xml"
+    code = main(["fit", str(DATA / "merl_slices" / "ss440.slice"), "--lobes", "Lambertian,KurtDiffuse,KurtDiffuse",
+                 "--combination", "fixed", "--out", str(out), "--json"])
+    assert code == 0
+    payload = json.loads(capsys.readouterr().out.splitlines()[-1])
+    stored = load(out).fittings[0]
+    assert stored.error == payload["error"]
+    assert max(lobe.scale[0] for lobe in stored.material.lobes) <= MAX_SCALE
+    lambertian = fit(material_from_lobes(["Lambertian"], "Fixed", 3), samples_of(read_slice(DATA / "merl_slices" / "ss440.slice")))
+    assert payload["error"] <= 1.0001 * lambertian.error  # the lobes add nothing on this steel, and cost nothing

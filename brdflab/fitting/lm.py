@@ -3,7 +3,9 @@
 Strategies (BRDFLab): **Linear** — the lobes' own parameters are nonlinear, the
 per-channel scaling factors are solved by non-negative least squares inside every
 evaluation (variable projection); **Fixed** — every parameter of every per-channel
-lobe, magnitude included, is nonlinear.
+lobe, magnitude included, is nonlinear. Magnitudes are searched unbounded (exp); a fit that
+ends with one above MAX_SCALE, which a material may not hold, goes on from there with the
+magnitudes capped (`_bring_under_cap`), so every fit returned is a material that loads.
 
 One pass over the samples (chunked, threaded) evaluates each lobe at the current
 parameters and at every finite-difference perturbation, and accumulates per-channel
@@ -30,7 +32,7 @@ from typing import Callable
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.material.analytic import MAX_SCALE, AnalyticMaterial, Lobe
 from brdflab.models import get_model
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULT_RESTARTS
 from brdflab.fitting.diagnosis import suspicions
@@ -92,6 +94,22 @@ class Positive:
 
 
 @dataclass(frozen=True)
+class Capped:
+    """A magnitude in [0, cap]: x = cap / (1 + exp(−u)). Far below the cap this is
+    cap · exp(u), Positive's map shifted, so the search there moves as Positive's does."""
+
+    cap: float
+
+    def to_x(self, u: float) -> float:
+        return self.cap / (1.0 + math.exp(-max(-60.0, min(60.0, u))))
+
+    def to_u(self, x: float, margin: float = 0.0) -> float:
+        """The search variable of x, at least `margin` (a fraction of the cap) below the cap."""
+        t = min(1.0 - max(margin, 1e-12), max(x, 1e-14) / self.cap)
+        return math.log(t / (1.0 - t))
+
+
+@dataclass(frozen=True)
 class FreeBlock:
     """Search variables that set some of one lobe's values.
 
@@ -103,7 +121,7 @@ class FreeBlock:
     lobe: int
     names: tuple[str, ...]  # () for a magnitude
     kind: str
-    transform: Bounded | Positive | None = None
+    transform: Bounded | Positive | Capped | None = None
     norm: float = 1.0
 
     @property
@@ -134,8 +152,9 @@ class FreeBlock:
                 params[n] = self.norm * v
 
 
-def free_blocks(material: AnalyticMaterial) -> list[FreeBlock]:
-    """Every search variable of a material's fit, in lobe order."""
+def free_blocks(material: AnalyticMaterial, magnitude_cap: float | None = None) -> list[FreeBlock]:
+    """Every search variable of a material's fit, in lobe order; Fixed magnitudes are
+    unbounded above unless `magnitude_cap` is given."""
     blocks = []
     for l, lobe in enumerate(material.lobes):
         group = lobe.model.scale_invariant
@@ -148,7 +167,7 @@ def free_blocks(material: AnalyticMaterial) -> list[FreeBlock]:
             if p.name not in group:
                 blocks.append(FreeBlock(l, (p.name,), "scalar", Bounded(p.lower, p.upper, p.log)))
         if material.combination == "Fixed":
-            blocks.append(FreeBlock(l, (), "magnitude", Positive()))
+            blocks.append(FreeBlock(l, (), "magnitude", Positive() if magnitude_cap is None else Capped(magnitude_cap)))
     return blocks
 
 
@@ -238,7 +257,7 @@ class _Problem:
     """Lobes, free parameters and a sample set; computes cost and normal equations."""
 
     def __init__(self, material: AnalyticMaterial, samples: SampleSet, options: FitOptions,
-                 stop: Callable[[], str | None] = lambda: None) -> None:
+                 stop: Callable[[], str | None] = lambda: None, magnitude_cap: float | None = None) -> None:
         if samples.n_channels != material.n_channels:
             raise BRDFLabError(
                 f"the source has {samples.n_channels} channels, the material {material.n_channels}")
@@ -248,7 +267,7 @@ class _Problem:
         self.samples = samples
         self.options = options
         self.linear = material.combination == "Linear"
-        self.blocks = free_blocks(material)
+        self.blocks = free_blocks(material, magnitude_cap)
         # for each search variable: its block and whether it changes the lobe's shape
         self.owner = [b for b in self.blocks for _ in range(b.size)]
         self.shape_vars = [k for k, b in enumerate(self.owner) if b.kind != "magnitude"]
@@ -594,6 +613,12 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
             passes += problem.passes
             if state is not None:
                 result_material = problem.material_of(u, state[4])
+        if _over_cap(result_material):
+            result_material, its, evaluations, capped_status = _bring_under_cap(
+                result_material, u, samples, options, stop, progress, history, search=status not in STOPPED)
+            iterations += its
+            passes += evaluations
+            status = capped_status or status
 
     # the reported error: summed directly over the scored samples, against the start's
     scored = score_on or samples
@@ -621,6 +646,37 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
     what = "all samples fitted" if score_on is None or score_on is samples else f"{scored.size} samples (all of the source)"
     return FitResult(result_material, error, options.metric, time.perf_counter() - t0, iterations,
                      passes, status, message, history, warnings, zero_error, what)
+
+
+def _over_cap(material: AnalyticMaterial) -> bool:
+    return material.combination == "Fixed" and any(l.scale[0] > MAX_SCALE for l in material.lobes)
+
+
+def _bring_under_cap(material: AnalyticMaterial, u: np.ndarray, samples: SampleSet, options: FitOptions,
+                     stop: Callable[[], str | None], progress: ProgressCallback | None, history: list[float],
+                     search: bool) -> tuple[AnalyticMaterial, int, int, str | None]:
+    """A Fixed fit whose magnitudes ran past MAX_SCALE (the unbounded search's way of
+    switching a lobe off, or of scaling a vanishing lobe up), brought within it: the
+    magnitudes over the cap start just below it and, with `search`, LM goes on from there
+    with every magnitude capped, so the result is a material that loads again.
+
+    Entered only for such fits: every other fit's path is the unbounded one. Returns the
+    material, iterations, passes and the search's status (None without a search)."""
+    problem = _Problem(material, samples, options, stop, magnitude_cap=MAX_SCALE)
+    try:
+        start = u.copy()
+        k = 0
+        for block in problem.blocks:
+            if block.kind == "magnitude":
+                start[k] = block.transform.to_u(material.lobes[block.lobe].scale[0], START_MARGIN)
+            k += block.size
+        if not search:
+            return problem.material_of(start, None), 0, 0, None
+        found, state, its, status, _ = _lm(problem, start, options, options.max_iterations, options.ftol,
+                                           "capped", progress, history)
+    finally:
+        problem.close()
+    return problem.material_of(found, None), its, problem.passes, status
 
 
 def _occurrences(names: list[str]) -> list[tuple[int, int]]:
