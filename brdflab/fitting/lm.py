@@ -5,7 +5,7 @@ per-channel scaling factors are solved by non-negative least squares inside ever
 evaluation (variable projection); **Fixed** — every parameter of every per-channel
 lobe, magnitude included, is nonlinear. Magnitudes are searched unbounded (exp); a fit that
 ends with one above MAX_SCALE, which a material may not hold, goes on from there with the
-magnitudes capped (`_bring_under_cap`), so every fit returned is a material that loads.
+magnitudes capped (`_refit_within_cap`), so every fit returned is a material that loads.
 
 One pass over the samples (chunked, threaded) evaluates each lobe at the current
 parameters and at every finite-difference perturbation, and accumulates per-channel
@@ -614,11 +614,14 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
             if state is not None:
                 result_material = problem.material_of(u, state[4])
         if _over_cap(result_material):
-            result_material, its, evaluations, capped_status = _bring_under_cap(
-                result_material, u, samples, options, stop, progress, history, search=status not in STOPPED)
-            iterations += its
-            passes += evaluations
-            status = capped_status or status
+            if status in STOPPED:
+                result_material = _continue_capped(result_material, u, samples, options, stop, None, [], 0)[0]
+            else:
+                result_material, its, evaluations, status = _refit_within_cap(
+                    candidates, (result_material, u), coarse is not None, stage_samples, samples, options, stop,
+                    progress, history)
+                iterations += its
+                passes += evaluations
 
     # the reported error: summed directly over the scored samples, against the start's
     scored = score_on or samples
@@ -652,16 +655,12 @@ def _over_cap(material: AnalyticMaterial) -> bool:
     return material.combination == "Fixed" and any(l.scale[0] > MAX_SCALE for l in material.lobes)
 
 
-def _bring_under_cap(material: AnalyticMaterial, u: np.ndarray, samples: SampleSet, options: FitOptions,
+def _continue_capped(material: AnalyticMaterial, u: np.ndarray, samples: SampleSet, options: FitOptions,
                      stop: Callable[[], str | None], progress: ProgressCallback | None, history: list[float],
-                     search: bool) -> tuple[AnalyticMaterial, int, int, str | None]:
-    """A Fixed fit whose magnitudes ran past MAX_SCALE (the unbounded search's way of
-    switching a lobe off, or of scaling a vanishing lobe up), brought within it: the
-    magnitudes over the cap start just below it and, with `search`, LM goes on from there
-    with every magnitude capped, so the result is a material that loads again.
-
-    Entered only for such fits: every other fit's path is the unbounded one. Returns the
-    material, iterations, passes and the search's status (None without a search)."""
+                     max_iterations: int) -> tuple[AnalyticMaterial, np.ndarray, float, int, int, str]:
+    """LM from a Fixed fit's search vector `u` with every magnitude capped at MAX_SCALE
+    (those above start just below it). Returns the material, its search vector, its cost
+    (inf when stopped before the first pass), iterations, passes and status."""
     problem = _Problem(material, samples, options, stop, magnitude_cap=MAX_SCALE)
     try:
         start = u.copy()
@@ -670,13 +669,54 @@ def _bring_under_cap(material: AnalyticMaterial, u: np.ndarray, samples: SampleS
             if block.kind == "magnitude":
                 start[k] = block.transform.to_u(material.lobes[block.lobe].scale[0], START_MARGIN)
             k += block.size
-        if not search:
-            return problem.material_of(start, None), 0, 0, None
-        found, state, its, status, _ = _lm(problem, start, options, options.max_iterations, options.ftol,
+        if max_iterations == 0:
+            return problem.material_of(start, None), start, math.inf, 0, 0, "converged"
+        found, state, its, status, _ = _lm(problem, start, options, max_iterations, options.ftol,
                                            "capped", progress, history)
     finally:
         problem.close()
-    return problem.material_of(found, None), its, problem.passes, status
+    cost = state[0] if state is not None else math.inf
+    return problem.material_of(found, None), found, cost, its, problem.passes, status
+
+
+def _refit_within_cap(candidates: list, final: tuple[AnalyticMaterial, np.ndarray], polished: bool,
+                      stage_samples: SampleSet, samples: SampleSet, options: FitOptions,
+                      stop: Callable[[], str | None], progress: ProgressCallback | None,
+                      history: list[float]) -> tuple[AnalyticMaterial, int, int, str]:
+    """A Fixed fit whose magnitudes ran past MAX_SCALE (the unbounded search's way of switching
+    a lobe off, or of scaling up a lobe that vanishes, e.g. Schwenk's s² at s → 0), fitted
+    again within it, so the result is a material that loads: every start's result continues
+    with capped magnitudes on the first stage's samples, the best is polished (capped) on
+    every sample, and the over-cap result itself continues capped; the lower cost wins.
+
+    Entered only for such fits: every other fit's path is the unbounded one. Returns the
+    material, iterations, passes and status."""
+    iterations = passes = 0
+    tries = []  # (cost on `samples`, material, status)
+    best = None
+    for _, material, _, u in candidates:
+        m, v, cost, its, n, status = _continue_capped(material, u, stage_samples, options, stop, progress, history,
+                                                      options.max_iterations)
+        iterations, passes = iterations + its, passes + n
+        if best is None or cost < best[0]:
+            best = (cost, m, v, status)
+        if status in STOPPED:
+            return best[1], iterations, passes, status
+    if polished:
+        cost, m, v, status = best
+        m, _, cost, its, n, status = _continue_capped(m, v, samples, options, stop, progress, history,
+                                                      options.max_iterations)
+        iterations, passes = iterations + its, passes + n
+        tries.append((cost, m, status))
+        if status not in STOPPED:
+            m, _, cost, its, n, status = _continue_capped(*final, samples, options, stop, progress, history,
+                                                          options.max_iterations)
+            iterations, passes = iterations + its, passes + n
+            tries.append((cost, m, status))
+    else:  # the first stage fitted every sample: the best start's result is the fit
+        tries.append((best[0], best[1], best[3]))
+    cost, material, status = min(tries, key=lambda t: t[0])
+    return material, iterations, passes, status
 
 
 def _occurrences(names: list[str]) -> list[tuple[int, int]]:
