@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from brdflab.errors import BRDFLabError
+from brdflab.study.fitting import FULL
 from brdflab.study.framework import read_study
 
 
@@ -31,8 +33,22 @@ def star(rows: list[dict], best: float) -> dict:
     return min(good, key=lambda r: (r["seconds"], r["error"]))
 
 
+def full_matrix(folder: Path) -> dict:
+    """The fitting part of the study in `folder`, or an error where it is not (part of) the
+    full matrix: the numbers below compare its families at 20 k and at every size."""
+    numbers = read_study(folder).get("parts", {}).get("fitting")
+    if numbers is None:
+        raise BRDFLabError(f"{folder}: no fitting study here (brdflab study --part fitting --out {folder})")
+    matrix = (numbers["core_size"], numbers["sizes"], numbers["fixed_sizes"], numbers["per_model"],
+              numbers["every_family_core"])
+    if matrix != (FULL.core_size, list(FULL.sizes), list(FULL.fixed_sizes), FULL.per_model, FULL.every_family_core):
+        raise BRDFLabError(f"{folder}: these numbers are the full matrix's (every family at 5 k to all samples), "
+                           "and this study fitted a smaller one (--quick or scoped)")
+    return numbers
+
+
 def main(folder: Path) -> None:
-    numbers = read_study(folder)["parts"]["fitting"]
+    numbers = full_matrix(folder)
     rows = numbers["rows"]  # the fits that ended with an error; those that could not run are in "failed"
     per_slice = numbers["fits_planned"] // len(numbers["materials"])
     by_material = defaultdict(list)
@@ -134,4 +150,8 @@ def main(folder: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("docs/study/fitting"))
+    try:
+        main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("docs/study/fitting"))
+    except BRDFLabError as e:
+        print(f"fitting_study_numbers: {e}", file=sys.stderr)
+        sys.exit(2)

@@ -18,7 +18,7 @@ from brdflab.study.framework import StudyContext, check_finite, journal_path, re
 from brdflab.study.pareto import enough_point, pareto_front
 from brdflab.study.stability import cell_summary, starts_of
 
-from conftest import DATA, needs_shared
+from conftest import DATA, ROOT, needs_shared
 
 BLUE_FABRIC = DATA / "merl_slices" / "blue-fabric.slice"
 
@@ -200,3 +200,21 @@ def test_a_stopped_run_draws_what_it_has_and_the_next_goes_on(tmp_path, tiny_ful
     second = tiny_full_run(tmp_path)
     assert (second["fits_this_run"], second["fits_done"]) == (3, 5)
     assert set(_by_key(second["rows"])) >= set(_by_key(first["rows"]))
+
+
+def test_the_numbers_script_reads_the_full_matrix_and_refuses_a_smaller_one(quick_study):
+    """benchmarks/fitting_study_numbers.py prints the committed study's numbers, and on a
+    --quick study says in one line that it needs the full matrix (it stopped with a
+    traceback: no 20 k fits)."""
+    import subprocess
+    import sys
+
+    script = str(ROOT / "benchmarks" / "fitting_study_numbers.py")
+    full = subprocess.run([sys.executable, script, str(ROOT / "docs" / "study" / "fitting")],
+                          capture_output=True, text=True, timeout=600)
+    assert full.returncode == 0, full.stderr[-2000:]
+    assert full.stdout.startswith("fits 9610,") and "== subsets" in full.stdout
+    out, _, _ = quick_study
+    quick = subprocess.run([sys.executable, script, str(out)], capture_output=True, text=True, timeout=600)
+    assert quick.returncode == 2 and quick.stdout == ""
+    assert quick.stderr.count("\n") == 1 and "full matrix" in quick.stderr and "Traceback" not in quick.stderr
