@@ -281,6 +281,7 @@ def test_fixed_magnitudes_end_within_the_material_cap():
     magnitudes = [lobe.scale[0] for lobe in result.material.lobes]
     assert all(0.99 * MAX_SCALE < m <= MAX_SCALE for m in magnitudes), magnitudes
     result.material.validate()
+    assert sum("is near the material cap" in w for w in result.warnings) == 3  # and the user is told
 
 
 @needs_shared("merl_slices", "ss440.slice")

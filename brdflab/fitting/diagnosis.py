@@ -1,12 +1,14 @@
 """Why a fit's result may be suspect, in words a user can act on: parameters that ended
-on a bound of their range, and energy violations (albedo above 1)."""
+on a bound of their range, Fixed values at the material cap, and energy violations (albedo
+above 1)."""
 
 from __future__ import annotations
 
 from brdflab.material.albedo import energy_check
-from brdflab.material.analytic import AnalyticMaterial
+from brdflab.material.analytic import MAX_SCALE, AnalyticMaterial
 
 BOUND_TOLERANCE = 1e-4  # of the parameter's range (of its logarithm for log-scale parameters)
+AT_CAP = 0.9  # a Fixed value above this fraction of MAX_SCALE is near the cap (the fitter starts over-cap values at 0.99)
 
 
 def at_bound(value: float, lower: float, upper: float, log: bool) -> str | None:
@@ -23,7 +25,8 @@ def at_bound(value: float, lower: float, upper: float, log: bool) -> str | None:
 
 
 def bound_warnings(material: AnalyticMaterial) -> list[str]:
-    """One line per lobe parameter on a bound (scale-invariant directions excluded)."""
+    """One line per lobe parameter on a bound (scale-invariant directions excluded), and per
+    Fixed value at the material cap."""
     out = []
     for k, lobe in enumerate(material.lobes):
         for p in lobe.model.parameters:
@@ -33,6 +36,9 @@ def bound_warnings(material: AnalyticMaterial) -> list[str]:
             if side is not None:
                 bound = p.lower if side == "lower" else p.upper
                 out.append(f"lobe {k} ({lobe.model.name}) {p.name} = {lobe.params[p.name]:.6g} is on its {side} bound {bound:g}")
+        if material.combination == "Fixed" and lobe.scale[0] >= AT_CAP * MAX_SCALE:
+            out.append(f"lobe {k} ({lobe.model.name}) value = {lobe.scale[0]:.6g} is near the material cap {MAX_SCALE:g}, "
+                       "the most a material may hold: typically a lobe switched off, or one whose shape vanishes")
     return out
 
 
