@@ -130,7 +130,7 @@ class FreeBlock:
 
     def to_u(self, lobe: Lobe, margin: float = 1e-12) -> list[float]:
         if self.kind == "magnitude":
-            return [self.transform.to_u(lobe.scale[0])]
+            return [self.transform.to_u(lobe.scale[0], margin)]
         if self.kind == "scalar":
             return [self.transform.to_u(lobe.params[self.names[0]], margin)]
         c = np.array([lobe.params[n] for n in self.names]) / self.norm
@@ -663,11 +663,11 @@ def _continue_capped(material: AnalyticMaterial, u: np.ndarray, samples: SampleS
     (inf when stopped before the first pass), iterations, passes and status."""
     problem = _Problem(material, samples, options, stop, magnitude_cap=MAX_SCALE)
     try:
-        start = u.copy()
+        start = u.copy()  # the shape parameters where the fit left them, not moved off their bounds
         k = 0
         for block in problem.blocks:
             if block.kind == "magnitude":
-                start[k] = block.transform.to_u(material.lobes[block.lobe].scale[0], START_MARGIN)
+                start[k:k + 1] = block.to_u(material.lobes[block.lobe], START_MARGIN)
             k += block.size
         if max_iterations == 0:
             return problem.material_of(start, None), start, math.inf, 0, 0, "converged"
@@ -692,8 +692,7 @@ def _refit_within_cap(candidates: list, final: tuple[AnalyticMaterial, np.ndarra
     Entered only for such fits: every other fit's path is the unbounded one. Returns the
     material, iterations, passes and status."""
     iterations = passes = 0
-    tries = []  # (cost on `samples`, material, status)
-    best = None
+    best = None  # (cost, material, search vector, status)
     for _, material, _, u in candidates:
         m, v, cost, its, n, status = _continue_capped(material, u, stage_samples, options, stop, progress, history,
                                                       options.max_iterations)
@@ -702,19 +701,16 @@ def _refit_within_cap(candidates: list, final: tuple[AnalyticMaterial, np.ndarra
             best = (cost, m, v, status)
         if status in STOPPED:
             return best[1], iterations, passes, status
-    if polished:
-        cost, m, v, status = best
+    if not polished:  # the first stage fitted every sample: the best start's result is the fit
+        return best[1], iterations, passes, best[3]
+    tries = []  # (cost on every sample, material, status)
+    for m, v in (best[1:3], final):
         m, _, cost, its, n, status = _continue_capped(m, v, samples, options, stop, progress, history,
                                                       options.max_iterations)
         iterations, passes = iterations + its, passes + n
         tries.append((cost, m, status))
-        if status not in STOPPED:
-            m, _, cost, its, n, status = _continue_capped(*final, samples, options, stop, progress, history,
-                                                          options.max_iterations)
-            iterations, passes = iterations + its, passes + n
-            tries.append((cost, m, status))
-    else:  # the first stage fitted every sample: the best start's result is the fit
-        tries.append((best[0], best[1], best[3]))
+        if status in STOPPED:
+            break
     cost, material, status = min(tries, key=lambda t: t[0])
     return material, iterations, passes, status
 
