@@ -53,6 +53,8 @@ def cmd_models(args: argparse.Namespace) -> int:
         ps = ", ".join(f"{p['name']}={p['default']:g} [{p['lower']:g}, {p['upper']:g}]" for p in m["parameters"])
         flags = ("isotropic" if m["isotropic"] else "anisotropic") + (", samplable" if m["samplable"] else "")
         lines.append(f"{m['id']:<24} {flags:<24} {ps}")
+        if "file" in m:
+            lines.append(f"{'':<24} from {m['format']} file {m['file']} ({m['evaluation']})")
         lines.append(f"{'':<24} prefiltered: {m['prefiltered']['rule']}")
     _emit(args, {"models": models}, "\n".join(lines))
     return 0
@@ -116,6 +118,31 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _lobe_names(text: str) -> list[str]:
+    """A comma-separated lobe list as registry names: a model's name, or a model file's path
+    (read, checked and registered)."""
+    from brdflab.models.files.library import resolve_lobe
+
+    return [resolve_lobe(s.strip()) for s in text.split(",") if s.strip()]
+
+
+def _load_model_folders(args: argparse.Namespace) -> None:
+    """Register the user's model files: every folder in BRDFLAB_MODELS, then --models DIR.
+    The `--models` of fit and batch also names the --auto ladder's models: its folders are
+    taken out here, and the names left for --auto."""
+    from brdflab.models.files.library import env_folders, load_folders
+
+    folders = env_folders() + [Path(d) for d in (getattr(args, "global_model_dirs", None) or [])]
+    folders += [Path(d) for d in (getattr(args, "model_dirs", None) or [])]
+    names = getattr(args, "models", None)
+    if isinstance(names, str):
+        entries = [e.strip() for e in names.split(",") if e.strip()]
+        folders += [Path(e) for e in entries if Path(e).is_dir()]
+        args.models = ",".join(e for e in entries if not Path(e).is_dir()) or None
+    if folders:
+        load_folders(folders, warn=_warner(args))
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     from brdflab.fitting.lm import FitOptions, fit
     from brdflab.io.atomic import check_writable
@@ -142,7 +169,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
         raise BRDFLabError(f"--density {args.density}: must be 2..{MAX_DENSITY} bins per half/difference angle")
     source_path = Path(args.source)
     source = load_source(source_path, fitting=args.fitting, warn=_warner(args))
-    lobes = [s.strip() for s in args.lobes.split(",") if s.strip()] if args.lobes else None
+    lobes = _lobe_names(args.lobes) if args.lobes else None
     combination = {"linear": "Linear", "fixed": "Fixed"}[args.combination]
     start = initial_material(lobes, combination, source.n_channels,
                              Path(args.init) if args.init else None, args.init_fitting)
@@ -215,7 +242,7 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
     source = load_source(source_path, fitting=args.fitting, warn=_warner(args))
     options = FitOptions(metric=args.metric, compression=args.compression, max_iterations=args.max_iterations,
                          time_limit=args.time_limit, restarts=args.restarts is not False)
-    models = [m.strip() for m in args.models.split(",") if m.strip()] if args.models else None
+    models = _lobe_names(args.models) if args.models else None
     for name in models or []:
         get_model(name)  # an unknown name fails before any fit
     ladder = auto_fit(samples_of(source), tolerance, args.metric, {"linear": "Linear", "fixed": "Fixed"}[args.combination],
@@ -251,8 +278,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     if args.tolerance is not None and not args.auto:
         raise BRDFLabError("--tolerance applies to --auto")
-    lobe_sets = [tuple(s.strip() for s in spec.split(",") if s.strip()) for spec in args.lobes]
-    models = tuple(m.strip() for m in args.models.split(",") if m.strip()) if args.models else ()
+    lobe_sets = [tuple(_lobe_names(spec)) for spec in args.lobes]
+    models = tuple(_lobe_names(args.models)) if args.models else ()
     tolerance = {} if args.tolerance is None else {"auto_tolerance": args.tolerance}
     settings = BatchSettings(sources=[Path(s) for s in args.sources], lobe_sets=lobe_sets, out=Path(args.out),
                              metric=args.metric, combination={"linear": "Linear", "fixed": "Fixed"}[args.combination],
@@ -533,6 +560,9 @@ def build_parser() -> argparse.ArgumentParser:
                     epilog="examples:\n  brdflab info example:fig2\n  brdflab render example:fig2 --out fig2.png\n"
                            "  brdflab COMMAND --help")
     parser.add_argument("--version", action="version", version=f"brdflab {__version__}")
+    parser.add_argument("--models", action="append", dest="global_model_dirs", metavar="DIR",
+                        help="a folder of model files (.brdf, BRDFLab model descriptors) to use beside the "
+                             "built-in models (repeatable; BRDFLAB_MODELS lists more)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     p = _add(sub, "gui", "open the desktop application")
@@ -694,6 +724,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "(run again into OUT to go on)")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_study)
+    for name, command in sub.choices.items():
+        if name not in ("fit", "batch"):  # theirs also names --auto's models (folders count there too)
+            command.add_argument("--models", action="append", dest="model_dirs", metavar="DIR",
+                                 help="a folder of model files (.brdf, BRDFLab model descriptors) to use "
+                                      "beside the built-in models (repeatable; BRDFLAB_MODELS lists more)")
     return parser
 
 
@@ -736,6 +771,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         with _terminate_cleanly(args.command):
+            _load_model_folders(args)
             return args.func(args)
     except BRDFLabError as e:
         print(f"brdflab {args.command}: {e}", file=sys.stderr)

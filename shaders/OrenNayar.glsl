@@ -1,5 +1,5 @@
 // Oren–Nayar qualitative model (scale by ρ/π).  p = [sigma]
-float brdf_OrenNayar(vec3 wi, vec3 wo, float p[8]) {
+float brdf_OrenNayar(vec3 wi, vec3 wo, float p[NP]) {
     float s2 = p[0] * p[0];
     float A = 1.0 - 0.5 * s2 / (s2 + 0.33);
     float B = 0.45 * s2 / (s2 + 0.09);
@@ -11,5 +11,5 @@ float brdf_OrenNayar(vec3 wi, vec3 wo, float p[8]) {
     float sin_b = ci < co ? so : si;
     return A + B * max(cos_dphi, 0.0) * sin_a * sin_b / max(max(ci, co), TINY);
 }
-vec3 sample_OrenNayar(vec3 wo, vec2 u, float p[8]) { return cosine_hemisphere(u); }
-float pdf_OrenNayar(vec3 wi, vec3 wo, float p[8]) { return cosine_hemisphere_pdf(wi); }
+vec3 sample_OrenNayar(vec3 wo, vec2 u, float p[NP]) { return cosine_hemisphere(u); }
+float pdf_OrenNayar(vec3 wi, vec3 wo, float p[NP]) { return cosine_hemisphere_pdf(wi); }

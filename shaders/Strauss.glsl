@@ -12,7 +12,7 @@ float strauss_shadow(float theta) {
     float a = (1.0 - kg) * (x - kg), b = kg * (1.0 - kg);
     return (1.0 - x) * (1.0 + x - 2.0 * kg) / (a * a) / ((1.0 - 2.0 * kg) / (b * b));
 }
-float brdf_Strauss(vec3 wi, vec3 wo, float p[8]) {
+float brdf_Strauss(vec3 wi, vec3 wo, float p[NP]) {
     float s = p[0], m = p[1], t = p[2], c = p[3];
     float ti = precise_acos(wi.z), to = precise_acos(wo.z);
     float rd = (1.0 - s * s * s) * (1.0 - t);

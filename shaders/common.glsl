@@ -1,6 +1,7 @@
 // Helpers shared by every lobe model (the GLSL twins of brdflab/vec.py and sampling.py).
-// Directions are in the local frame: z = normal. Parameters come as float p[8] in the
-// order the model declares them.
+// Directions are in the local frame: z = normal. Parameters come as float p[NP] in the
+// order the model declares them (NP = brdflab.render.glsl.MAX_PARAMS; the rest are 0).
+const int NP = 16;
 const float PI = 3.14159265358979;
 const float TINY = 1e-12;
 
@@ -111,3 +112,23 @@ vec2 env_uv(vec3 d, float rotation) {
     d = vec3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
     return vec2(0.5 + atan(d.x, -d.z) / (2.0 * PI), precise_acos(clamp(d.y, -1.0, 1.0)) / PI);
 }
+
+// asin and atan to float precision too: model files' GLSL calls these three instead of the
+// built-ins (brdflab/models/files), so that a file model's render agrees with its CPU formula
+// (Mesa's llvmpipe's acos is 1.6e-4 rad off). atan: one Newton step on sin/cos.
+float precise_asin(float x) { return 0.5 * PI - precise_acos(x); }
+float precise_atan(float y, float x) {
+    float a = atan(y, x);
+    float c = cos(a), s = sin(a);
+    float d = x * c + y * s;  // the length of (x, y), > 0 unless both are 0
+    return d > 0.0 ? a + (y * c - x * s) / d : a;
+}
+float precise_atan(float t) { return precise_atan(t, 1.0); }
+vec2 precise_acos(vec2 v) { return vec2(precise_acos(v.x), precise_acos(v.y)); }
+vec3 precise_acos(vec3 v) { return vec3(precise_acos(v.x), precise_acos(v.y), precise_acos(v.z)); }
+vec2 precise_asin(vec2 v) { return vec2(precise_asin(v.x), precise_asin(v.y)); }
+vec3 precise_asin(vec3 v) { return vec3(precise_asin(v.x), precise_asin(v.y), precise_asin(v.z)); }
+vec2 precise_atan(vec2 y, vec2 x) { return vec2(precise_atan(y.x, x.x), precise_atan(y.y, x.y)); }
+vec3 precise_atan(vec3 y, vec3 x) { return vec3(precise_atan(y.x, x.x), precise_atan(y.y, x.y), precise_atan(y.z, x.z)); }
+vec2 precise_atan(vec2 t) { return vec2(precise_atan(t.x), precise_atan(t.y)); }
+vec3 precise_atan(vec3 t) { return vec3(precise_atan(t.x), precise_atan(t.y), precise_atan(t.z)); }

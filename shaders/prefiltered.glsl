@@ -4,7 +4,7 @@
 // toward n for rough lobes, Lagarde & de Rousiers 2014).
 // Irradiance: one fetch; per lobe: two albedo texels, and two stack fetches if it is glossy.
 uniform sampler2DArray u_pref_stack;   // layer 0: irradiance; then α layers per kernel
-uniform sampler2D u_pref_albedo;       // row k: lobe k's directional albedo over cos θo
+uniform sampler2D u_pref_albedo;       // row k: lobe k's directional albedo (RGB) over cos θo
 uniform float u_pref_albedo_size;      // entries per row, at cos θo = i / (size − 1)
 uniform vec4 u_pref_layers[N_LOBES];   // (lower layer, upper layer, weight of the upper, diffuse share)
 uniform vec4 u_pref_axis[N_LOBES];     // (axis, w): the lobe looks along normalize(mix(n, normalize(axis ∘ wo), w))
@@ -19,7 +19,7 @@ vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
     vec3 color = vec3(0.0);
     for (int k = 0; k < N_LOBES; k++) {
         vec4 layers = u_pref_layers[k];
-        float albedo = mix(texelFetch(u_pref_albedo, ivec2(i0, k), 0).r, texelFetch(u_pref_albedo, ivec2(i0 + 1, k), 0).r, f);
+        vec3 albedo = mix(texelFetch(u_pref_albedo, ivec2(i0, k), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, k), 0).rgb, f);
         vec3 light = layers.w * irradiance / PI;
         if (layers.w < 1.0) {
             vec3 axis = stable_axis(u_pref_axis[k].xyz * wo);

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.export.glsl import _material, glsl_float, library_source
-from brdflab.render.glsl import MAX_PARAMS, lobe_uniforms
+from brdflab.export.glsl import _material, glsl_float, library_source, lobe_call, parameter_array
+from brdflab.render.glsl import lobe_uniforms
 
 
 def _param_name(k: int, name: str) -> str:
@@ -40,12 +40,13 @@ def shader_lines(source) -> list[str]:
              "    vec3 wo = vec3(dot(V, X), dot(V, Y), dot(V, N));",
              "    if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);",
              "    vec3 f = vec3(0.0);",
-             "    float v;"]
+             "    float v;",
+             "    vec3 c;"]
     for k, lobe in enumerate(material.lobes):
         names = [_param_name(k, p) for p in lobe.model.parameter_names]
-        args = ", ".join(names + ["0.0"] * (MAX_PARAMS - len(names)))
-        lines.append(f"    v = brdf_{lobe.model.name}(wi, wo, float[8]({args}));")
-        lines.append(f"    if (!(isnan(v) || isinf(v))) f += lobe{k}_scale * v;")
+        call, add = lobe_call(lobe, parameter_array(names or ["0.0"]), material.n_channels)
+        lines.append(f"    {call}")
+        lines.append(f"    {add.format(scale=f'lobe{k}_scale')}")
     lines += ["    return f;", "}", "::end shader"]
     return lines
 

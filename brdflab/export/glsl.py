@@ -27,11 +27,26 @@ def _material(source) -> AnalyticMaterial:
     return source
 
 
+def lobe_call(lobe, args: str, n_channels: int) -> tuple[str, str]:
+    """The GLSL that adds one lobe to `f` given its parameter array `args`: a colour lobe (a
+    BRDF Explorer file) adds its RGB in a 3-channel material, as the renderers do."""
+    gid = lobe.model.glsl_id
+    if lobe.model.colour and n_channels == 3:
+        return f"c = brdf_{gid}_rgb(wi, wo, {args});", "if (!(any(isnan(c)) || any(isinf(c)))) f += {scale} * c;"
+    return f"v = brdf_{gid}(wi, wo, {args});", "if (!(isnan(v) || isinf(v))) f += {scale} * v;"
+
+
+def parameter_array(values) -> str:
+    """A float[NP] constructor of a lobe's parameters, zero-filled."""
+    text = [v if isinstance(v, str) else glsl_float(v) for v in values]
+    return f"float[NP]({', '.join(text + ['0.0'] * (MAX_PARAMS - len(text)))})"
+
+
 def baked_body(source) -> list[str]:
     """Lines of `vec3 brdflab_brdf(vec3 wi, vec3 wo)`: local frame (z = normal), RGB in 1/sr."""
     material = _material(source)
     u = lobe_uniforms(material)
-    params = u["u_lobe_p"].reshape(-1, MAX_PARAMS)
+    params = u["u_lobe_p"].reshape(len(material.lobes), -1)
     scales = u["u_lobe_scale"].reshape(-1, 3)
     lines = [
         f"// {material.name}: {', '.join(l.model.name for l in material.lobes)}; wi, wo in the local frame (z = normal)",
@@ -39,12 +54,13 @@ def baked_body(source) -> list[str]:
         "    if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);",
         "    vec3 f = vec3(0.0);",
         "    float v;",
+        "    vec3 c;",
     ]
     for k, lobe in enumerate(material.lobes):
-        p = ", ".join(glsl_float(x) for x in params[k])
-        s = ", ".join(glsl_float(x) for x in scales[k])
-        lines.append(f"    v = brdf_{lobe.model.name}(wi, wo, float[8]({p}));")
-        lines.append(f"    if (!(isnan(v) || isinf(v))) f += vec3({s}) * v;")
+        n = len(lobe.model.parameters)
+        call, add = lobe_call(lobe, parameter_array([float(x) for x in params[k][:n]] or [0.0]), material.n_channels)
+        lines.append(f"    {call}")
+        lines.append(f"    {add.format(scale='vec3(' + ', '.join(glsl_float(x) for x in scales[k]) + ')')}")
     lines += ["    return f;", "}"]
     return lines
 

@@ -30,8 +30,8 @@ def bound_warnings(material: AnalyticMaterial) -> list[str]:
     out = []
     for k, lobe in enumerate(material.lobes):
         for p in lobe.model.parameters:
-            if p.name in lobe.model.scale_invariant:
-                continue
+            if p.name in lobe.model.scale_invariant or not p.fitted or p.lower == p.upper:
+                continue  # a switch (a file's bool) sits on a bound by design
             side = at_bound(lobe.params[p.name], p.lower, p.upper, p.log)
             if side is not None:
                 bound = p.lower if side == "lower" else p.upper

@@ -32,7 +32,7 @@ from typing import Callable
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.material.analytic import MAX_SCALE, AnalyticMaterial, Lobe
+from brdflab.material.analytic import MAX_SCALE, AnalyticMaterial, Lobe, lobe_channels
 from brdflab.models import get_model
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULT_RESTARTS
 from brdflab.fitting.diagnosis import suspicions
@@ -164,7 +164,7 @@ def free_blocks(material: AnalyticMaterial, magnitude_cap: float | None = None) 
             norm = float(np.linalg.norm(c)) or 1.0
             blocks.append(FreeBlock(l, tuple(group), "direction", norm=min(norm, bound)))
         for p in lobe.model.parameters:
-            if p.name not in group:
+            if p.name not in group and p.fitted and p.upper > p.lower:  # a switch keeps its value
                 blocks.append(FreeBlock(l, (p.name,), "scalar", Bounded(p.lower, p.upper, p.log)))
         if material.combination == "Fixed":
             blocks.append(FreeBlock(l, (), "magnitude", Positive() if magnitude_cap is None else Capped(magnitude_cap)))
@@ -330,11 +330,15 @@ class _Problem:
         inside = weight > 0.0  # samples outside the metric's domain cost nothing
         if not inside.all():
             wi, wo, y, weight = wi[inside], wo[inside], y[inside], weight[inside]
-        E = np.empty((len(rows), wi.shape[0]))
-        for r, (l, p) in enumerate(rows):
-            E[r] = self.material.lobes[l].model.evaluate(wi, wo, p)
         C = y.shape[1]
         R = len(rows)
+        # E[k, r]: row r's lobe values, one plane for all channels, or one per channel when a
+        # colour lobe gives each channel its own
+        lobes = self.material.lobes
+        K = 3 if C == 3 and any(lobes[l].model.colour for l, _ in rows) else 1
+        E = np.empty((K, R, wi.shape[0]))
+        for r, (l, p) in enumerate(rows):
+            E[:, r] = lobe_channels(lobes[l].model, wi, wo, p, C).T
         G = np.empty((C, R, R))
         b = np.empty((C, R))
         yy = np.empty(C)
@@ -342,15 +346,16 @@ class _Problem:
         plain_b = np.empty((C, len(self.material.lobes))) if plain is not None else None
         plain_yy = np.empty(C) if plain is not None else None
         for c in range(C):
+            Ec = E[min(c, K - 1)]
             wc = weight * self._compression_weight(y[:, c])
-            Ew = E * wc
-            G[c] = Ew @ E.T
+            Ew = Ec * wc
+            G[c] = Ew @ Ec.T
             b[c] = Ew @ y[:, c]
             yy[c] = np.einsum("n,n->", wc, y[:, c] ** 2)  # not `@`: OpenBLAS threads 1-D dots badly
             if plain is not None:
                 L = plain.shape[1]
-                Eb = E[:L] * weight
-                plain[c] = Eb @ E[:L].T
+                Eb = Ec[:L] * weight
+                plain[c] = Eb @ Ec[:L].T
                 plain_b[c] = Eb @ y[:, c]
                 plain_yy[c] = np.einsum("n,n->", weight, y[:, c] ** 2)
         return G, b, yy, plain, plain_b, plain_yy, norm

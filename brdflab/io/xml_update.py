@@ -298,8 +298,9 @@ class _Updater:
         else:
             _set_integer(lobe_el, "channel", lobe.channel)
         model = lobe_el.find("Model")
-        model_changed = model is None or (model.text or "").strip() != lobe.model.name
-        self.child_text(lobe_el, "Model", lobe.model.name)
+        model_changed = model is None or (model.text or "").strip() != lobe.model.xml_name
+        self.child_text(lobe_el, "Model", lobe.model.xml_name)
+        self.model_file(lobe_el, lobe.model)
         p_el = lobe_el.find("Parameters")
         if p_el is None:  # a file may leave out an empty <Parameters/>: added only when needed
             p_el = etree.Element("Parameters")
@@ -314,6 +315,21 @@ class _Updater:
         if changed and (model_changed or (says == "Isotropic" and xmlio.lobe_type(lobe) != says)):
             self.child_text(lobe_el, "Type", xmlio.lobe_type(lobe))
         return group
+
+    def model_file(self, lobe_el: etree._Element, model) -> None:
+        """The lobe's <ModelFile> says where its file model is (none for a built-in)."""
+        old = lobe_el.find("ModelFile")
+        if model.origin is None:
+            if old is not None:
+                self.remove(old)
+            return
+        new = xmlio.model_file_element(model, xmlio._WRITE_DIR[0])
+        if old is not None and dict(old.attrib) == dict(new.attrib):
+            return
+        if old is not None:
+            self.remove(old)
+        anchor = lobe_el.find("Parameters")
+        self.insert_after(lobe_el, anchor if anchor is not None else lobe_el.find("Model"), new)
 
     def lobe_parameters(self, p_el: etree._Element, lobe: Lobe, combination: str) -> bool:
         """Write the lobe's parameters into its <Parameters>; whether any value changed.

@@ -386,10 +386,7 @@ class _Reader:
     def lobe(self, el: etree._Element, combination: str, scale: list[float] | None,
              scale_el: etree._Element | None) -> Lobe:
         model_name = self.text(el, "Model")
-        try:
-            model = get_model(model_name)
-        except BRDFLabError as e:
-            raise self.fail(el.find("Model"), str(e)) from None
+        model = self.model_of(el, model_name)
         p_el = el.find("Parameters")
         given = {} if p_el is None else {k: self.number(p_el, k, v) for k, v in self.attributes(p_el).items()}
         channel = None
@@ -408,10 +405,47 @@ class _Reader:
         except BRDFLabError as e:
             raise self.fail(p_el if p_el is not None else el, str(e)) from None
         for child in el:
-            if isinstance(child.tag, str) and child.tag not in {"Model", "Type", "Parameters"}:
+            if isinstance(child.tag, str) and child.tag not in {"Model", "Type", "Parameters", "ModelFile"}:
                 self.unknown(child, "Lobe")
                 lobe.extra.append(("Lobe", copy.deepcopy(child)))
         return lobe
+
+
+    def model_of(self, el: etree._Element, model_name: str):
+        """The lobe's model: a <ModelFile> names the file model's file (relative to the
+        material) and checksum; else a built-in, else a model read from the model folders."""
+        from brdflab.models.files.library import resolve_reference
+        from brdflab.models.registry import find_file_model
+
+        ref = el.find("ModelFile")
+        try:
+            if ref is not None:
+                return resolve_reference(model_name, ref.get("path"), ref.get("sha256"), self.base_dir)
+            try:
+                return get_model(model_name)
+            except BRDFLabError:
+                found = find_file_model(model_name)
+                if found is None:
+                    raise
+                return found
+        except BRDFLabError as e:
+            raise self.fail(el.find("Model") if ref is None else ref, str(e)) from None
+
+
+def model_file_element(model, base_dir: Path | None) -> etree._Element:
+    """<ModelFile path=".." sha256=".."/>: where a file model came from, relative to the
+    material's folder where it can be, so that the pair moves together."""
+    target = model.origin.path
+    path = str(target)
+    if base_dir is not None:
+        try:
+            path = os.path.relpath(target, Path(base_dir).resolve())
+        except ValueError:  # another drive
+            pass
+    return etree.Element("ModelFile", {"path": Path(path).as_posix(), "sha256": model.origin.sha256})
+
+
+_WRITE_DIR: list[Path | None] = [None]  # the folder a document is being written to (save)
 
 
 def _parse_scalar(text: str):
@@ -497,12 +531,14 @@ def lobe_elements(lobe: Lobe, combination: str) -> list[etree._Element]:
     lobe_el = etree.Element("Lobe")
     if combination == "Fixed":
         lobe_el.set("channel", str(lobe.channel))
-    etree.SubElement(lobe_el, "Model").text = lobe.model.name
+    etree.SubElement(lobe_el, "Model").text = lobe.model.xml_name
     etree.SubElement(lobe_el, "Type").text = lobe_type(lobe)
     attrs = {k: _num(lobe.params[k]) for k in lobe.model.parameter_names}
     if combination == "Fixed":
         attrs["value"] = _num(lobe.scale[0])
     etree.SubElement(lobe_el, "Parameters", attrs)
+    if lobe.model.origin is not None:
+        lobe_el.append(model_file_element(lobe.model, _WRITE_DIR[0]))
     lobe_el.extend(copy.deepcopy(x) for where, x in lobe.extra if where == "Lobe")
     out.append(lobe_el)
     out.extend(copy.deepcopy(x) for where, x in lobe.extra if where == "Parameters")
@@ -593,7 +629,12 @@ def save(doc: BRDFDocument, path: str | os.PathLike) -> None:
     path = Path(path)
     if isinstance(doc.material, MeasuredReference):
         doc.material = _rebase(doc.material, path.parent)
-    atomic_write(path, to_bytes(doc))
+    _WRITE_DIR[0] = path.parent
+    try:
+        data = to_bytes(doc)
+    finally:
+        _WRITE_DIR[0] = None
+    atomic_write(path, data)
     doc.path = path
 
 

@@ -38,7 +38,7 @@ class LobeSplit:
     """One lobe's prefiltered lighting: its albedo table, the two stack layers blended for
     its roughness, its lookup axis and the share of its albedo lit by the irradiance."""
 
-    albedo: np.ndarray  # (ALBEDO_SIZE,) over cos θo = i / (ALBEDO_SIZE − 1)
+    albedo: np.ndarray  # (ALBEDO_SIZE, 3) over cos θo = i / (ALBEDO_SIZE − 1), per colour (a colour lobe's differ)
     layers: tuple[int, int, float]
     axis: tuple[float, float, float]
     diffuse_share: float
@@ -57,14 +57,16 @@ def albedo_cosines(size: int = ALBEDO_SIZE) -> np.ndarray:
 
 
 def lobe_albedo_table(lobe: Lobe, size: int = ALBEDO_SIZE) -> np.ndarray:
-    """A_k(cos θo) of the unscaled lobe, averaged over view azimuths if it is anisotropic."""
-    from brdflab.material.albedo import lobe_albedo
+    """A_k(cos θo) of the unscaled lobe in red, green and blue, (size, 3), averaged over view
+    azimuths if it is anisotropic."""
+    from brdflab.material.albedo import lobe_albedo_channels
 
     cos_o = np.maximum(albedo_cosines(size), MIN_COS)
     sin_o = np.sqrt(1.0 - cos_o**2)
     phis = [0.0] if lobe.model.is_isotropic(lobe.params) else np.arange(ANISOTROPIC_PHIS) * (np.pi / ANISOTROPIC_PHIS)
     wo = np.concatenate([np.stack([sin_o * np.cos(p), sin_o * np.sin(p), cos_o], -1) for p in phis])
-    return lobe_albedo(lobe, wo).reshape(len(phis), size).mean(axis=0)
+    a = lobe_albedo_channels(lobe, wo, 3)
+    return np.broadcast_to(a, (len(wo), 3)).reshape(len(phis), size, 3).mean(axis=0)
 
 
 def lobe_split(lobe: Lobe) -> LobeSplit:
@@ -129,7 +131,8 @@ def prefiltered_pixels(material: AnalyticMaterial, stack: PrefilteredStack, fram
     colour = np.zeros((len(n), 3))
     cosines = albedo_cosines()
     for split, rgb in zip(material_split(material), material.rgb_scales()):
-        albedo = np.interp(np.clip(wo[:, 2], 0.0, 1.0), cosines, split.albedo)
+        x = np.clip(wo[:, 2], 0.0, 1.0)
+        albedo = np.stack([np.interp(x, cosines, split.albedo[:, c]) for c in range(3)], -1)
         light = split.diffuse_share * irradiance / np.pi
         if split.diffuse_share < 1.0:
             local = unit(split.toward_axis * unit(np.asarray(split.axis) * wo)
@@ -138,5 +141,5 @@ def prefiltered_pixels(material: AnalyticMaterial, stack: PrefilteredStack, fram
             lo, hi, w = split.layers
             glossy = (1 - w) * sample_latlong(stack.layers[lo], d) + w * sample_latlong(stack.layers[hi], d)
             light = light + (1.0 - split.diffuse_share) * glossy
-        colour += rgb * albedo[:, None] * light
+        colour += rgb * albedo * light
     return colour

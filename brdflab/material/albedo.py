@@ -14,7 +14,7 @@ from functools import lru_cache
 import numpy as np
 
 from brdflab.geometry.sobol import scrambled_sobol
-from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.material.analytic import AnalyticMaterial, Lobe, lobe_channels
 from brdflab.geometry.vec import spherical_to_cartesian
 
 SAMPLES_LOG2 = 12
@@ -37,7 +37,14 @@ def _product_rule(n_theta: int, n_phi: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def lobe_albedo(lobe: Lobe, wo: np.ndarray, samples_log2: int = SAMPLES_LOG2) -> np.ndarray:
-    """Albedo of one unscaled lobe for each view direction wo (shape (M, 3)) → (M,)."""
+    """Albedo of one unscaled lobe for each view direction wo (shape (M, 3)) → (M,) (a colour
+    lobe: of its luminance)."""
+    return lobe_albedo_channels(lobe, wo, 1, samples_log2)[:, 0]
+
+
+def lobe_albedo_channels(lobe: Lobe, wo: np.ndarray, n_channels: int, samples_log2: int = SAMPLES_LOG2) -> np.ndarray:
+    """Albedo of one unscaled lobe per channel of an n_channels material: (M, 1), or (M, 3)
+    for a colour lobe in a 3-channel material (see `lobe_channels`)."""
     wo = np.atleast_2d(np.asarray(wo, float))
     model, params = lobe.model, lobe.params
     if model.samplable:
@@ -45,12 +52,13 @@ def lobe_albedo(lobe: Lobe, wo: np.ndarray, samples_log2: int = SAMPLES_LOG2) ->
         wo_b = np.broadcast_to(wo[:, None, :], (wo.shape[0], u.shape[0], 3))
         wi = model.sample(wo_b, u[None, :, :], params)
         pdf = model.pdf(wi, wo_b, params)
-        f = model.evaluate(wi, wo_b, params) * np.maximum(wi[..., 2], 0.0)
-        ratio = np.where(pdf > 0.0, f / np.where(pdf > 0.0, pdf, 1.0), 0.0)
+        f = lobe_channels(model, wi, wo_b, params, n_channels) * np.maximum(wi[..., 2], 0.0)[..., None]
+        ratio = np.where(pdf[..., None] > 0.0, f / np.where(pdf > 0.0, pdf, 1.0)[..., None], 0.0)
         return ratio.mean(axis=1)
     dirs, weights = _product_rule(*PRODUCT_RULE)
-    f = model.evaluate(dirs[None, :, :], wo[:, None, :], params) * dirs[None, :, 2]
-    return f @ weights
+    wi = np.broadcast_to(dirs[None, :, :], (wo.shape[0],) + dirs.shape)
+    f = lobe_channels(model, wi, np.broadcast_to(wo[:, None, :], wi.shape), params, n_channels)
+    return np.einsum("mnk,n->mk", f * dirs[None, :, 2, None], weights)
 
 
 def directional_albedo(material: AnalyticMaterial, wo: np.ndarray, samples_log2: int = SAMPLES_LOG2) -> np.ndarray:
@@ -58,11 +66,11 @@ def directional_albedo(material: AnalyticMaterial, wo: np.ndarray, samples_log2:
     wo = np.atleast_2d(np.asarray(wo, float))
     out = np.zeros((wo.shape[0], material.n_channels))
     for lobe in material.lobes:
-        a = lobe_albedo(lobe, wo, samples_log2)
+        a = lobe_albedo_channels(lobe, wo, material.n_channels, samples_log2)
         if material.combination == "Linear":
-            out += a[:, None] * np.asarray(lobe.scale)
+            out += a * np.asarray(lobe.scale)
         else:
-            out[:, lobe.channel] += lobe.scale[0] * a
+            out[:, lobe.channel] += lobe.scale[0] * a[:, min(lobe.channel, a.shape[1] - 1)]
     return out
 
 

@@ -126,6 +126,20 @@ class Lobe(SourceLinked):
     def values(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         return self.model.evaluate(wi, wo, self.params)
 
+    def channel_values(self, wi: np.ndarray, wo: np.ndarray, n_channels: int) -> np.ndarray:
+        """The lobe's value per channel, shape (..., 1) (the same in every channel) or
+        (..., 3): see `lobe_channels`."""
+        return lobe_channels(self.model, wi, wo, self.params, n_channels)
+
+
+def lobe_channels(model: LobeModel, wi, wo, params, n_channels: int) -> np.ndarray:
+    """A lobe's value per channel of an `n_channels` material: (..., 1) for a lobe with one
+    value; a colour lobe gives its red, green and blue to a 3-channel material, (..., 3), and
+    its luminance to every channel of any other (there is no colour to map)."""
+    if model.colour and n_channels == 3:
+        return model.evaluate_rgb(wi, wo, params)
+    return model.evaluate(wi, wo, params)[..., None]
+
 
 @dataclass
 class AnalyticMaterial(SourceLinked):
@@ -191,11 +205,11 @@ class AnalyticMaterial(SourceLinked):
         shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1])
         out = np.zeros(shape + (self.n_channels,))
         for lobe in self.lobes:
-            v = lobe.values(wi, wo)
+            v = lobe.channel_values(wi, wo, self.n_channels)
             if self.combination == "Linear":
-                out += v[..., None] * np.asarray(lobe.scale)
+                out += v * np.asarray(lobe.scale)
             else:
-                out[..., lobe.channel] += lobe.scale[0] * v
+                out[..., lobe.channel] += lobe.scale[0] * v[..., min(lobe.channel, v.shape[-1] - 1)]
         return out
 
     def copy(self) -> "AnalyticMaterial":

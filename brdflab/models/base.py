@@ -62,6 +62,14 @@ class Parameter:
     unit: str = "1"
     doc: str = ""
     log: bool = False  # spans decades: the fitter searches it on a log scale
+    # "float"; "bool" (0 or 1, a switch: held fixed by a fit); "colour" (one component of a
+    # colour, as BRDF Explorer's `color` parameters are read: NAME.r, NAME.g, NAME.b)
+    kind: str = "float"
+
+    @property
+    def fitted(self) -> bool:
+        """Whether a fit searches it (a switch is the user's choice, not a fitted value)."""
+        return self.kind != "bool"
 
     def as_dict(self) -> dict:
         return {
@@ -72,6 +80,7 @@ class Parameter:
             "unit": self.unit,
             "doc": self.doc,
             "log_scale": self.log,
+            "kind": self.kind,
         }
 
 
@@ -98,6 +107,33 @@ class LobeModel:
     scale_invariant: ClassVar[tuple[str, ...]] = ()
     # how `split_sum` maps the lobe to prefiltered lighting, in words (`brdflab models`)
     split_sum_rule: ClassVar[str] = ""
+    # True for a lobe whose value is a colour (a BRDF Explorer file's vec3): `evaluate` gives
+    # its luminance, `evaluate_rgb` the three values; see AnalyticMaterial for the channels
+    colour: ClassVar[bool] = False
+    # where a model read from a file came from (None for a built-in)
+    origin: ClassVar[object | None] = None
+
+    @property
+    def xml_name(self) -> str:
+        """The name a material file gives the model (<Model>)."""
+        return self.name
+
+    @property
+    def glsl_samplable(self) -> bool:
+        """Whether the GLSL twin has sample_<id>/pdf_<id> (else renderers sample the cosine)."""
+        return self.samplable
+
+    @property
+    def glsl_id(self) -> str:
+        """The identifier of the model's GLSL functions (brdf_<id>, sample_<id>, pdf_<id>)."""
+        return self.name
+
+    def glsl_source(self) -> str:
+        """The GLSL twin: `float brdf_<id>(vec3 wi, vec3 wo, float p[NP])` (a colour lobe:
+        `vec3 brdf_<id>_rgb(...)`), and sample_/pdf_<id> if it is samplable."""
+        from brdflab.io.resources import shader_path
+
+        return shader_path(f"{self.name}.glsl").read_text()
 
     # --- declared-once metadata -------------------------------------------------
     @property
@@ -135,7 +171,7 @@ class LobeModel:
     def describe(self) -> dict:
         return {
             "id": self.name,
-            "xml_name": self.name,
+            "xml_name": self.xml_name,
             "summary": self.summary,
             "reference": self.reference,
             "isotropic": self.isotropic,
@@ -165,6 +201,11 @@ class LobeModel:
         if not np.isfinite(out.sum()):
             out[~np.isfinite(out)] = 0.0
         return out
+
+    def evaluate_rgb(self, wi: np.ndarray, wo: np.ndarray, params: ParamValues | None = None) -> np.ndarray:
+        """f(wi, wo) in red, green and blue, shape (..., 3): the value thrice but for a colour lobe."""
+        v = self.evaluate(wi, wo, params)
+        return np.repeat(v[..., None], 3, axis=-1)
 
     def sample(self, wo: np.ndarray, u: np.ndarray, params: ParamValues | None = None) -> np.ndarray:
         """Directions wi drawn from pdf(·, wo) using uniforms u of shape (..., 2)."""

@@ -14,9 +14,11 @@ from brdflab.material.analytic import AnalyticMaterial
 from brdflab.models import LobeModel
 from brdflab.io.resources import shader_path
 
-MAX_PARAMS = 8
+MAX_PARAMS = 16  # NP in shaders/common.glsl: the most parameters one lobe has
+BUILTIN_PARAMS = 8  # the most a built-in has: a material of built-ins passes 8 per lobe
 MAX_LOBES = 64  # the shader unrolls every lobe and holds its parameters in uniforms
 GLSL_VERSION = "#version 330 core\n"
+LUMINANCE_GLSL = "vec3(0.2126, 0.7152, 0.0722)"
 
 
 def shader_source(name: str) -> str:
@@ -24,39 +26,56 @@ def shader_source(name: str) -> str:
 
 
 def model_source(model: LobeModel) -> str:
-    return shader_source(f"{model.name}.glsl")
+    return model.glsl_source()
 
 
-def material_source(models: tuple[str, ...], measured: bool = False) -> str:
+def params_per_lobe(models: tuple[str, ...]) -> int:
+    """Uniform floats per lobe: 8 for built-ins (as before file models), up to MAX_PARAMS."""
+    from brdflab.models import get_model
+
+    return max([BUILTIN_PARAMS] + [len(get_model(m).parameters) for m in models])
+
+
+def material_source(models: tuple[str, ...], measured: bool = False, n_channels: int = 3) -> str:
     """GLSL for a material made of these models (in lobe order): material_eval(wi, wo)
     → RGB, material_sample(k, wo, u) and the mixture density material_pdf(wi, wo).
 
     measured=True: material_eval reads the measured table (shaders/measured.glsl) and the
-    lobes are only a fitted proxy that importance-samples it."""
+    lobes are only a fitted proxy that importance-samples it. A colour lobe (a BRDF
+    Explorer file) adds its RGB in a 3-channel material and its luminance in any other,
+    as AnalyticMaterial.evaluate does."""
     from brdflab.models import get_model
 
     n = len(models)
+    width = params_per_lobe(models)
     parts = [shader_source("common.glsl")]
     for name in dict.fromkeys(models):
         parts.append(model_source(get_model(name)))
     lines = [
         f"#define N_LOBES {n}",
-        f"uniform float u_lobe_p[{MAX_PARAMS * n}];",
+        f"uniform float u_lobe_p[{width * n}];",
         f"uniform vec3 u_lobe_scale[{n}];",
         f"uniform float u_lobe_share[{n}];",
-        "float[8] lobe_params(int k) {",
-        "    float p[8];",
-        "    for (int i = 0; i < 8; i++) p[i] = u_lobe_p[8 * k + i];",
+        "float[NP] lobe_params(int k) {",
+        "    float p[NP];",
+        f"    for (int i = 0; i < NP; i++) p[i] = i < {width} ? u_lobe_p[{width} * k + i] : 0.0;",
         "    return p;",
         "}",
         "vec3 material_eval(vec3 wi, vec3 wo) {",
         "    if (wi.z <= 0.0 || wo.z <= 0.0) return vec3(0.0);",
         "    vec3 f = vec3(0.0);",
         "    float v;",
+        "    vec3 c;",
     ]
     for k, name in enumerate(models):
-        lines.append(f"    v = brdf_{name}(wi, wo, lobe_params({k}));")
-        lines.append(f"    if (!(isnan(v) || isinf(v))) f += u_lobe_scale[{k}] * v;")
+        model = get_model(name)
+        gid = model.glsl_id
+        if model.colour and n_channels == 3:
+            lines.append(f"    c = brdf_{gid}_rgb(wi, wo, lobe_params({k}));")
+            lines.append(f"    if (!(any(isnan(c)) || any(isinf(c)))) f += u_lobe_scale[{k}] * c;")
+        else:
+            lines.append(f"    v = brdf_{gid}(wi, wo, lobe_params({k}));")
+            lines.append(f"    if (!(isnan(v) || isinf(v))) f += u_lobe_scale[{k}] * v;")
     if measured:
         lines += ["    return measured_eval(wi, wo);", "}"]
         parts.append(shader_source("measured.glsl"))
@@ -64,11 +83,13 @@ def material_source(models: tuple[str, ...], measured: bool = False) -> str:
         lines += ["    return f;", "}"]
     lines += ["vec3 material_sample(int k, vec3 wo, vec2 u) {"]
     for k, name in enumerate(models):
-        sampler = f"sample_{name}(wo, u, lobe_params({k}))" if get_model(name).samplable else "cosine_hemisphere(u)"
+        model = get_model(name)
+        sampler = f"sample_{model.glsl_id}(wo, u, lobe_params({k}))" if model.glsl_samplable else "cosine_hemisphere(u)"
         lines.append(f"    if (k == {k}) return {sampler};")
     lines += ["    return cosine_hemisphere(u);", "}", "float material_pdf(vec3 wi, vec3 wo) {", "    float p = 0.0;"]
     for k, name in enumerate(models):
-        pdf = f"pdf_{name}(wi, wo, lobe_params({k}))" if get_model(name).samplable else "cosine_hemisphere_pdf(wi)"
+        model = get_model(name)
+        pdf = f"pdf_{model.glsl_id}(wi, wo, lobe_params({k}))" if model.glsl_samplable else "cosine_hemisphere_pdf(wi)"
         lines.append(f"    p += u_lobe_share[{k}] * {pdf};")
     lines += ["    return p;", "}"]
     return "\n".join(parts + lines) + "\n"
@@ -78,7 +99,7 @@ def lobe_uniforms(material: AnalyticMaterial, shares: np.ndarray | None = None) 
     """Uniform values of a material: parameters, RGB scales (Fixed lobes scale their own
     channel; one-channel materials are grey) and sampling shares."""
     n = len(material.lobes)
-    params = np.zeros((n, MAX_PARAMS), np.float32)
+    params = np.zeros((n, params_per_lobe(models_of(material))), np.float32)
     for k, lobe in enumerate(material.lobes):
         values = [lobe.params[p] for p in lobe.model.parameter_names]
         params[k, : len(values)] = values
@@ -100,3 +121,8 @@ def set_uniforms(program, values: dict[str, np.ndarray]) -> None:
 
 def models_of(material: AnalyticMaterial) -> tuple[str, ...]:
     return tuple(l.model.name for l in material.lobes)
+
+
+def source_for(material: AnalyticMaterial, measured: bool = False) -> str:
+    """material_source for this material's models and channel count."""
+    return material_source(models_of(material), measured, material.n_channels)

@@ -93,25 +93,27 @@ class LobeViewer:
             self._layers[index] = None
             return
         models = models_of(source) if analytic else ("Lambertian",)
-        self._layers[index] = _Layer(source, self._program(models, not analytic))
+        channels = source.n_channels if analytic else 3
+        self._layers[index] = _Layer(source, self._program(models, not analytic, channels))
         if analytic:
             set_uniforms(self._layers[index].program, lobe_uniforms(source))
 
     def update_material(self, index: int, material: AnalyticMaterial) -> None:
         """New parameters for a layer with the same lobe models: uniforms only, no rebuild."""
         layer = self._layers[index]
-        if layer is None or not isinstance(layer.source, AnalyticMaterial) or models_of(layer.source) != models_of(material):
+        if layer is None or not isinstance(layer.source, AnalyticMaterial) or models_of(layer.source) != models_of(material) \
+                or layer.source.n_channels != material.n_channels:
             self._set_layer(index, material)
             return
         layer.source, layer.peak = material, None
         set_uniforms(layer.program, lobe_uniforms(material))
 
-    def _program(self, models: tuple[str, ...], textured: bool) -> moderngl.Program:
-        key = (models, textured)
+    def _program(self, models: tuple[str, ...], textured: bool, n_channels: int = 3) -> moderngl.Program:
+        key = (models, textured, n_channels)
         if key not in self._programs:
             head = GLSL_VERSION + ("#define SOURCE_TEXTURE\n" if textured else "")
             self._programs[key] = self.ctx.program(
-                vertex_shader=head + material_source(models) + shader_source("lobe_vertex.glsl"),
+                vertex_shader=head + material_source(models, n_channels=n_channels) + shader_source("lobe_vertex.glsl"),
                 geometry_shader=GLSL_VERSION + shader_source("lobe_geometry.glsl"),
                 fragment_shader=GLSL_VERSION + shader_source("lobe_fragment.glsl"))
         return self._programs[key]

@@ -384,13 +384,14 @@ class ObjectRenderer:
         return mode == "sh" and not reference and self.mesh is not None and (
             self.sh_shadows or self.sh_variant != "dynamic")
 
-    def _program(self, models: tuple[str, ...], mode: str, reference: bool, measured: bool = False) -> moderngl.Program:
+    def _program(self, models: tuple[str, ...], mode: str, reference: bool, measured: bool = False,
+                 n_channels: int = 3) -> moderngl.Program:
         shadowed = self._shadowed(mode, reference)
-        key = (models, mode, reference, measured, self.sh_order if mode == "sh" else 0, shadowed,
+        key = (models, n_channels, mode, reference, measured, self.sh_order if mode == "sh" else 0, shadowed,
                self.sh_variant if shadowed else "")
         if key not in self._programs:
             defines = f"#define MODE_{mode.upper()}\n" + ("#define GEOMETRY_REFERENCE\n" if reference else "")
-            material = material_source(models, measured)
+            material = material_source(models, measured, n_channels)
             if mode == "mis":
                 material += shader_source("env_sampling.glsl")
             if mode == "sh":
@@ -433,7 +434,7 @@ class ObjectRenderer:
             raise BRDFLabError(f"unknown lighting mode {settings.mode!r} ({', '.join(MODES)})")
         reference = settings.reference_view or self.mesh is None
         models = models_of(self.material)
-        prog = self._program(models, settings.mode, reference, self.measured)
+        prog = self._program(models, settings.mode, reference, self.measured, self.material.n_channels)
         set_uniforms(prog, self._uniforms)
         if self.measured:
             self.table_texture.use(2)

@@ -68,7 +68,7 @@ class PrefilteredLighting:
             self.release_albedo()
             splits = self._splits[1] if self._splits is not None and self._splits[0] == key else material_split(material)
             table = np.ascontiguousarray(np.stack([s.albedo for s in splits]), np.float32)
-            tex = self.ctx.texture((table.shape[1], table.shape[0]), 1, table.tobytes(), dtype="f4")
+            tex = self.ctx.texture((table.shape[1], table.shape[0]), 3, table.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # interpolated in the shader
             uniforms = {
                 "u_pref_layers": np.array([[*s.layers, s.diffuse_share] for s in splits], np.float32),

@@ -40,12 +40,34 @@ def resolve_measured(ref: MeasuredReference, warn: Warn | None = None):
     return table
 
 
+def is_model_file(path: Path) -> bool:
+    """A BRDF Explorer `.brdf` or a BRDFLab model descriptor: a model, not a material."""
+    from brdflab.models.files.library import _is_descriptor
+
+    return path.suffix.lower() == ".brdf" or (is_xml(path) and path.is_file() and _is_descriptor(path))
+
+
+def model_file_material(path: Path) -> AnalyticMaterial:
+    """A model file standing where a material does: one lobe at the file's defaults, scale 1
+    in each of three channels (Linear)."""
+    from brdflab.material.analytic import Lobe
+    from brdflab.models.files.library import load_model_file
+
+    model = load_model_file(path)
+    return AnalyticMaterial(model.xml_name, "Linear", 3, [Lobe(model, model.defaults(), [1.0, 1.0, 1.0])])
+
+
 def load_source(path: Path, fitting: int | None = None, warn: Warn | None = None):
     """The source in `path`; with `fitting`, the K-th stored fit of an XML material. `warn`
-    hears problems that do not stop the work (a measured file that fails its checksum)."""
+    hears problems that do not stop the work (a measured file that fails its checksum). A
+    model file (.brdf, model descriptor) is one lobe of its model at its defaults."""
     path = Path(path)
     if not path.exists():
         raise BRDFLabError("no such file", path)
+    if is_model_file(path):
+        if fitting is not None:
+            raise BRDFLabError("a model file stores no fittings", path)
+        return model_file_material(path)
     if not is_xml(path):
         if fitting is not None:
             raise BRDFLabError("only XML materials store fittings", path)
@@ -79,6 +101,11 @@ def describe_file(path: Path) -> dict:
     path = Path(path)
     if not path.exists():
         raise BRDFLabError("no such file", path)
+    if is_model_file(path):
+        material = model_file_material(path)
+        model = material.lobes[0].model
+        return {"file": str(path), "model": model.describe(), "material": material.describe(),
+                "energy": energy_check(material).as_dict(), "fittings": [], "warnings": list(model.warnings)}
     if not is_xml(path):
         return {"file": str(path), "material": read_measured(path).describe()}
     doc: BRDFDocument = load(path)

@@ -1,0 +1,37 @@
+"""Models read from files: BRDFLab's model descriptors (`.xml`) and BRDF Explorer's `.brdf`.
+
+`read_model_file(path)` builds a `FileModel`; `brdflab.models.registry.add_file_model`
+puts it beside the built-ins, and `library` finds the user's model folders.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from brdflab.errors import BRDFLabError
+from brdflab.io.bounded import read_bounded
+from brdflab.models.files.limits import MAX_MODEL_BYTES
+from brdflab.models.files.model import FileModel, Origin
+
+SUFFIXES = (".brdf", ".xml")
+
+
+def is_model_file(text: str) -> bool:
+    """Whether a command-line argument names a model file (by its suffix)."""
+    return Path(text).suffix.lower() in SUFFIXES
+
+
+def read_model_file(path: str | Path, name: str | None = None) -> FileModel:
+    """The model a file defines, by its format; BRDFLabError (one line naming the file)."""
+    from brdflab.models.files import brdf_explorer, descriptor
+
+    path = Path(path)
+    data = read_bounded(path, MAX_MODEL_BYTES, "a model file")
+    if path.suffix.lower() == ".brdf":
+        return brdf_explorer.read(path, data, name)
+    if b"AnalyticBRDFModel" in data[:4096] or path.suffix.lower() == ".xml":
+        return descriptor.read(path, data, name)
+    raise BRDFLabError("not a model file (a BRDF Explorer .brdf or a BRDFLab model descriptor .xml)", path)
+
+
+__all__ = ["FileModel", "Origin", "SUFFIXES", "is_model_file", "read_model_file"]

@@ -1,0 +1,168 @@
+"""The user's model files: where they are looked for, and how they join the registry.
+
+Model folders, in this order: the folder chosen in the GUI's settings, every folder in
+`BRDFLAB_MODELS` (a path list, `:`-separated as PATH is), and `--models DIR` on the command
+line. Every `.brdf` and BRDFLab descriptor `.xml` in them is read, checked (its GLSL
+compiled and evaluated on probe pairs in a child process with a time limit; its formula
+evaluated) and registered beside the built-ins. A bad file in a folder is reported in one
+line and skipped; a bad file named on its own (a lobe, a material argument, "Add model from
+file…") is an error. A model is registered whole or not at all.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Callable, Iterable
+
+import numpy as np
+
+from brdflab.errors import BRDFLabError
+from brdflab.models.files import SUFFIXES, read_model_file
+from brdflab.models.files.model import FileModel
+from brdflab.models.registry import add_file_model, file_models, find_file_model
+
+ENV = "BRDFLAB_MODELS"
+MAX_FILES_PER_FOLDER = 1000
+PROBE_PAIRS = 4096
+
+Warn = Callable[[str], None]
+
+
+def env_folders() -> list[Path]:
+    return [Path(p) for p in os.environ.get(ENV, "").split(os.pathsep) if p.strip()]
+
+
+def model_files(folder: Path) -> list[Path]:
+    """The model files in a folder (not its subfolders), by name."""
+    if not folder.is_dir():
+        raise BRDFLabError("no such model folder", folder)
+    found = sorted(p for p in folder.iterdir() if p.suffix.lower() in SUFFIXES and p.is_file())
+    if len(found) > MAX_FILES_PER_FOLDER:
+        raise BRDFLabError(f"{len(found):,} model files (at most {MAX_FILES_PER_FOLDER:,} a folder)", folder)
+    return [p for p in found if p.suffix.lower() == ".brdf" or _is_descriptor(p)]
+
+
+def _is_descriptor(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return b"AnalyticBRDFModel" in f.read(4096)
+    except OSError:
+        return False
+
+
+def check_model(model: FileModel) -> None:
+    """Refuse a model whose values are unusable: its formula gives NaN or negative values at
+    its defaults, or its GLSL does not compile, runs away or gives NaN (child process)."""
+    if model.formula is not None:
+        wi, wo = probe_pairs(PROBE_PAIRS)
+        values = model.formula.evaluate({**_directions(wi, wo), **model.defaults()})
+        values = np.broadcast_to(values, wi.shape[:1])
+        bad = ~np.isfinite(values)
+        if bad.mean() > 0.01:
+            raise BRDFLabError(f"its <Equation> gives NaN or infinity at {bad.mean():.0%} of probe pairs at "
+                               "its defaults", model.origin.path)
+        scale = np.nanmax(np.abs(np.where(bad, 0.0, values)), initial=1.0)
+        if (values[~bad] < -1e-6 * scale).any():
+            raise BRDFLabError(f"its <Equation> gives negative values at its defaults (down to "
+                               f"{float(values[~bad].min()):.3g}): a BRDF is never negative", model.origin.path)
+    from brdflab.models.files.backend import glsl_evaluator
+
+    glsl_evaluator().check(model)
+
+
+def _directions(wi, wo):
+    from brdflab.models.files.expression import direction_values
+
+    return direction_values(wi, wo)
+
+
+def probe_pairs(n: int, seed: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """n pairs of directions strictly above the surface (cos θ ≥ 0.02), reproducible."""
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(0.02, 1.0, (2, n))
+    phi = rng.uniform(0.0, 2.0 * np.pi, (2, n))
+    s = np.sqrt(1.0 - z * z)
+    w = np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=-1)
+    return w[0], w[1]
+
+
+def load_model_file(path: str | Path, check: bool = True) -> FileModel:
+    """Read, check and register one model file; the registered model (an identical file
+    already registered is that model). BRDFLabError, naming the file, if it is unusable."""
+    path = Path(path)
+    for m in file_models():  # the same file, unchanged: no second read or check
+        if m.origin.path == path.resolve() and m.origin.sha256 == _sha256(path):
+            return m
+    model = read_model_file(path)
+    if check:
+        check_model(model)
+    return add_file_model(model)
+
+
+def _sha256(path: Path) -> str | None:
+    import hashlib
+
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest() if path.stat().st_size <= (1 << 20) else None
+    except OSError:
+        return None
+
+
+def load_folders(folders: Iterable[Path], warn: Warn | None = None) -> list[FileModel]:
+    """Register every model file in these folders. A file that cannot be used is reported
+    through `warn` (one line) and skipped; two files with one model name are an error."""
+    loaded = []
+    for folder in folders:
+        for path in model_files(Path(folder)):
+            try:
+                loaded.append(load_model_file(path))
+            except BRDFLabError as e:
+                if "two model files define" in str(e):
+                    raise
+                if warn is None:
+                    raise
+                warn(str(e))
+    return loaded
+
+
+def resolve_lobe(text: str) -> str:
+    """A lobe argument as a registry name: a model's name, or the path of a model file
+    (loaded, checked and registered)."""
+    from brdflab.models.files import is_model_file
+
+    if is_model_file(text) and (Path(text).exists() or os.sep in text or "/" in text):
+        return load_model_file(Path(text)).name
+    return text
+
+
+def resolve_reference(model_name: str, path_text: str | None, sha256: str | None, base_dir: Path | None) -> FileModel:
+    """The file model a material's lobe names: by its recorded path (relative to the
+    material's folder), else a registered model of that name and checksum. BRDFLabError that
+    says what is missing and how to supply it."""
+    if path_text:
+        p = Path(path_text)
+        candidate = p if p.is_absolute() or base_dir is None else base_dir / p
+        if candidate.is_file():
+            model = load_model_file(candidate)
+            if model.xml_name != model_name:
+                raise BRDFLabError(f"the model file defines {model.xml_name!r}, not {model_name!r}", candidate)
+            return model
+    found = find_file_model(model_name, sha256) or (find_file_model(model_name) if not sha256 else None)
+    if found is not None:
+        return found
+    where = f" from {path_text}" if path_text else ""
+    raise BRDFLabError(f"the lobe model {model_name!r}{where} is not available: its model file is missing "
+                       f"(put it back, or add its folder with --models DIR or {ENV})")
+
+
+def rebuild(path: str, sha256: str, name: str) -> FileModel:
+    """A file model in another process (a fit's worker): read again from its file, which
+    must still be the one the parent read."""
+    for m in file_models():
+        if m.origin.sha256 == sha256 and m.name == name:
+            return m
+    model = read_model_file(Path(path), name)
+    if model.origin.sha256 != sha256:
+        raise BRDFLabError("the model file changed while the lab was using it", path)
+    return add_file_model(model)

@@ -1,0 +1,61 @@
+"""What a model file may declare, checked before anything is built from it."""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Callable
+
+from brdflab.errors import BRDFLabError
+from brdflab.models.base import Parameter
+
+MAX_MODEL_BYTES = 1 << 20  # BRDF Explorer's largest file (disney.brdf) is 4 KB
+MAX_PARAMETERS = 16  # scalars: the renderers pass a lobe's parameters as float p[NP], NP = 16
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")  # ASCII digits only
+_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
+_GLSL_RESERVED = frozenset("""
+attribute const uniform varying layout centroid flat smooth noperspective patch sample break continue do
+for while switch case default if else subroutine in out inout true false invariant discard return lowp
+mediump highp precision struct common partition active asm class union enum typedef template this
+resource goto inline noinline public static extern external interface long short half fixed unsigned
+superp input output filter sizeof cast namespace using main
+""".split())
+
+
+def number(text: str | None, what: str, fail: Callable[[str], BRDFLabError]) -> float:
+    """A finite number written in ASCII digits (no locale digits, no underscores)."""
+    if text is None:
+        raise fail(f"missing {what}")
+    t = text.strip()
+    if not _NUMBER.fullmatch(t):
+        raise fail(f"{what}={t[:32]!r} is not a number")
+    v = float(t)
+    if not math.isfinite(v):
+        raise fail(f"{what}={t[:32]!r} is not finite")
+    return v
+
+
+def parameter_name(text: str, fail: Callable[[str], BRDFLabError]) -> str:
+    from brdflab.models.files.glsl_text import TYPES
+
+    t = text.strip()
+    if not _IDENT.fullmatch(t) or t in _GLSL_RESERVED or t in TYPES or t.startswith("gl_") or "__" in t:
+        raise fail(f"parameter name {t[:40]!r} must be 1-64 letters, digits or '_' (not starting with a digit, "
+                   "no '__'), and not a GLSL keyword")
+    return t
+
+
+def check_parameters(params: list[Parameter], fail: Callable[[str], BRDFLabError]) -> None:
+    """Refuse duplicate names, too many parameters, min > max and defaults outside the bounds."""
+    if len(params) > MAX_PARAMETERS:
+        raise fail(f"{len(params)} parameters (counting each colour as three) is more than the "
+                   f"{MAX_PARAMETERS} a lobe may have")
+    seen = set()
+    for p in params:
+        if p.name in seen:
+            raise fail(f"parameter {p.name!r} is declared twice")
+        seen.add(p.name)
+        if p.lower > p.upper:
+            raise fail(f"parameter {p.name!r}: its minimum {p.lower:g} is above its maximum {p.upper:g}")
+        if not p.lower <= p.default <= p.upper:
+            raise fail(f"parameter {p.name!r}: its default {p.default:g} is outside [{p.lower:g}, {p.upper:g}]")

@@ -1,0 +1,188 @@
+"""A lobe model read from a file: a peer of the built-ins in the one registry.
+
+What a file gives (parameters with defaults and bounds, a CPU formula and/or GLSL) is held
+here in the shape every built-in has, so the viewer, the fitter, the renderers, the energy
+check and the file format use it without knowing where it came from:
+
+- **evaluation**: BRDFLab's `<Equation>` compiled to NumPy (`expression`); a model with
+  GLSL alone (every BRDF Explorer file) is evaluated by its own GLSL through the headless
+  OpenGL context (`brdflab.render.model_eval`, plugged in by `backend`);
+- **GLSL twin**: the file's code with its names prefixed (`glsl_text`) and a wrapper with
+  the lab's signature `brdf_<id>(wi, wo, float p[NP])` (a colour lobe: `brdf_<id>_rgb`);
+- **sampling**: a table built from the lobe's own values (`sampler.TabulatedSampler`);
+- **prefiltered lighting**: an equivalent roughness measured on the lobe's own shape.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from brdflab.models.base import LobeModel, Parameter, SplitSum
+from brdflab.models.files.expression import Formula, direction_values
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 weights of linear RGB
+
+
+@dataclass(frozen=True)
+class Origin:
+    """Where a file model came from: its file, that file's sha256 and its format."""
+
+    path: Path
+    sha256: str
+    format: str  # "BRDFLab descriptor" or "BRDF Explorer"
+
+    @classmethod
+    def of(cls, path: Path, data: bytes, fmt: str) -> "Origin":
+        return cls(Path(path).resolve(), hashlib.sha256(data).hexdigest(), fmt)
+
+
+@dataclass
+class GlslParts:
+    """The file's GLSL, ready to link: `library` (prefixed declarations and helpers) and the
+    body of the wrapper that sets the parameters and returns the value (vec3 or float)."""
+
+    library: str
+    call: str  # an expression of wi, wo and p[] giving the lobe's value
+    returns_colour: bool
+    line_offset: int = 0  # the file's line of the library's first line (compiler messages)
+
+
+class FileModel(LobeModel):
+    """A lobe model defined by a model file. Instances are stateless once built."""
+
+    def __init__(self, name: str, model_name: str, parameters: tuple[Parameter, ...], isotropic: bool,
+                 origin: Origin, glsl: GlslParts, formula: Formula | None = None, summary: str = "",
+                 warnings: tuple[str, ...] = ()) -> None:
+        self.name = name
+        self.model_name = model_name
+        self.parameters = parameters
+        self.isotropic = isotropic
+        self.origin = origin
+        self.glsl = glsl
+        self.formula = formula
+        self.colour = glsl.returns_colour and formula is None
+        self.summary = summary or f"{origin.format} model from {origin.path.name}"
+        self.reference = str(origin.path)
+        self.warnings = list(warnings)
+        self.sampling = "tabulated from the lobe's own values (the lab's generic sampler)"
+        self.split_sum_rule = ("measured on the lobe's own values at normal view: mirror, Beckmann α = "
+                               "√(albedo / (4π f(n, n))) (exact for a microfacet lobe's core); diffuse "
+                               "when that is ≥ 0.5, a Lambertian's")
+        self.starts = ({},)
+        self._id = model_glsl_id(model_name, origin.sha256)
+        self._samplers: dict = {}
+
+    def __reduce__(self):
+        """Sent to another process (a fit's worker) as its file: read there again."""
+        from brdflab.models.files.library import rebuild
+
+        return rebuild, (str(self.origin.path), self.origin.sha256, self.name)
+
+    # --- identity
+    @property
+    def glsl_id(self) -> str:
+        return self._id
+
+    @property
+    def xml_name(self) -> str:
+        return self.model_name
+
+    def describe(self) -> dict:
+        out = super().describe()
+        out.update(xml_name=self.model_name, colour=self.colour, file=str(self.origin.path),
+                   sha256=self.origin.sha256, format=self.origin.format,
+                   evaluation="formula (NumPy)" if self.formula is not None else "GLSL (OpenGL)")
+        return out
+
+    def complete(self, given: Mapping[str, float]) -> dict[str, float]:
+        """A file's lobe as BRDFLab read it: a parameter it does not give takes its default."""
+        out = self.defaults()
+        out.update(given)
+        return out
+
+    # --- evaluation
+    def _value(self, wi, wo, p):
+        if self.formula is not None:
+            values = direction_values(wi, wo)
+            values.update({k: np.asarray(v, float) for k, v in p.items()})
+            return self.formula.evaluate(values)
+        return self._gl_values(wi, wo, p) @ LUMINANCE if self.colour else self._gl_values(wi, wo, p)[..., 0]
+
+    def evaluate_rgb(self, wi, wo, params=None):
+        if not self.colour:
+            return super().evaluate_rgb(wi, wo, params)
+        wi = np.asarray(wi, float)
+        wo = np.asarray(wo, float)
+        out = self._gl_values(wi, wo, self._with_defaults(params))
+        out[~((wi[..., 2] > 0) & (wo[..., 2] > 0))] = 0.0
+        out[~np.isfinite(out)] = 0.0
+        return out
+
+    def _gl_values(self, wi, wo, p) -> np.ndarray:
+        from brdflab.models.files.backend import glsl_evaluator
+
+        return glsl_evaluator().evaluate(self, wi, wo, self.parameter_vector(p))
+
+    def parameter_vector(self, p: Mapping[str, "float | np.ndarray"]) -> list:
+        return [p[q.name] for q in self.parameters]
+
+    # --- sampling (generic: the file's own samplers are not trusted, see sampler.py)
+    def _sampler(self, p):
+        from brdflab.models.files.sampler import TabulatedSampler
+
+        key = tuple(float(np.asarray(p[q.name]).ravel()[0]) for q in self.parameters)
+        s = self._samplers.get(key)
+        if s is None:
+            if len(self._samplers) > 8:
+                self._samplers.clear()
+            s = self._samplers[key] = TabulatedSampler.build(self, dict(zip(self.parameter_names, key)))
+        return s
+
+    def _sample(self, wo, u, p):
+        return self._sampler(p).sample(wo, u)
+
+    def _pdf(self, wi, wo, p):
+        return self._sampler(p).pdf(wi, wo)
+
+    # --- prefiltered lighting
+    def split_sum(self, params):
+        from brdflab.models.files.sampler import equivalent_roughness
+
+        alpha = equivalent_roughness(self, self._with_defaults(params))
+        if alpha is None:
+            return SplitSum("diffuse", kernel="cosine")
+        return SplitSum("mirror", alpha)
+
+    # --- GLSL twin
+    def glsl_source(self) -> str:
+        i = self._id
+        lines = [self.glsl.library]
+        kind = "vec3" if self.glsl.returns_colour else "float"
+        lines.append(f"{kind} {i}_value(vec3 wi, vec3 wo, float p[NP]) {{ {self.glsl.call} }}")
+        if self.colour:
+            lines.append(f"vec3 brdf_{i}_rgb(vec3 wi, vec3 wo, float p[NP]) {{ return {i}_value(wi, wo, p); }}")
+            lines.append(f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) "
+                         f"{{ return dot({i}_value(wi, wo, p), vec3({', '.join(map(str, LUMINANCE))})); }}")
+        elif self.glsl.returns_colour:  # a formula model whose GLSL gives a colour: its luminance
+            lines.append(f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) "
+                         f"{{ return dot({i}_value(wi, wo, p), vec3({', '.join(map(str, LUMINANCE))})); }}")
+        else:
+            lines.append(f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) {{ return {i}_value(wi, wo, p); }}")
+        return "\n".join(lines) + "\n"
+
+    @property
+    def glsl_samplable(self) -> bool:
+        return False  # the renderers sample its cosine; the CPU side has the tabulated sampler
+
+
+def model_glsl_id(model_name: str, sha256: str) -> str:
+    """The GLSL identifier of a file model: its name, made an identifier, and the file's
+    checksum (two files with one model name never share GLSL names)."""
+    from brdflab.models.files.glsl_text import identifier
+
+    return f"{identifier(model_name)[:40]}_{sha256[:6]}"

@@ -1,0 +1,166 @@
+"""A sampler for any lobe, built from its own values: tabulated distributions of wi per
+view direction, and an equivalent roughness measured on the lobe's shape.
+
+For each tabulated view wo (elevations θv; and azimuths φv for anisotropic lobes) the
+hemisphere of wi is cut into N_THETA × N_PHI cells, uniform in θ and φ; a cell's mass is
+f(wi, wo) cos θi at its centre times its solid angle. A draw picks a table (between the two
+neighbouring views, with probability by the interpolation weight, so the density is the
+same mix of both tables), a cell by its mass, and a point uniformly in the cell's solid
+angle; a fixed share COSINE_SHARE is cosine-weighted, so every direction where the lobe can
+be non-zero has a density. `pdf` is that mixture's density exactly, so the sampler is
+unbiased whatever the lobe, and close to f cos θi where the cells resolve it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+N_THETA, N_PHI = 64, 128
+N_VIEWS = 24  # tabulated view elevations (isotropic lobes)
+N_VIEW_PHI = 12  # and azimuths (anisotropic lobes)
+COSINE_SHARE = 0.05
+DIFFUSE_ALPHA = 0.5  # the equivalent α of a Lambertian: a lobe at least that flat is lit as diffuse
+
+
+def _cells():
+    t_edges = np.linspace(0.0, 0.5 * math.pi, N_THETA + 1)
+    p_edges = np.linspace(0.0, 2.0 * math.pi, N_PHI + 1)
+    t = 0.5 * (t_edges[:-1] + t_edges[1:])
+    p = 0.5 * (p_edges[:-1] + p_edges[1:])
+    solid = (np.cos(t_edges[:-1]) - np.cos(t_edges[1:]))[:, None] * np.diff(p_edges)[None, :]
+    st = np.sin(t)
+    dirs = np.stack([st[:, None] * np.cos(p)[None, :], st[:, None] * np.sin(p)[None, :],
+                     np.broadcast_to(np.cos(t)[:, None], (N_THETA, N_PHI))], axis=-1)
+    return t_edges, dirs, solid
+
+
+def _rotate_z(w: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * w[..., 0] - s * w[..., 1], s * w[..., 0] + c * w[..., 1], w[..., 2]], axis=-1)
+
+
+@dataclass
+class TabulatedSampler:
+    """Tabulated importance sampling of one lobe at fixed parameters."""
+
+    view_theta: np.ndarray  # (V,)
+    view_phi: np.ndarray  # (P,) ([0] for an isotropic lobe)
+    cdf: np.ndarray  # (V * P, cells), rising to 1 (a table with no mass is uniform)
+    density: np.ndarray  # (V * P, cells): mass / solid angle of each cell
+    isotropic: bool
+
+    @classmethod
+    def build(cls, model, params: dict) -> "TabulatedSampler":
+        t_edges, dirs, solid = _cells()
+        vt = np.linspace(0.0, math.radians(89.0), N_VIEWS)
+        iso = bool(model.is_isotropic(params))
+        vp = np.array([0.0]) if iso else np.arange(N_VIEW_PHI) * (2.0 * math.pi / N_VIEW_PHI)
+        views = np.stack(np.meshgrid(vt, vp, indexing="ij"), -1).reshape(-1, 2)
+        wo = np.stack([np.sin(views[:, 0]) * np.cos(views[:, 1]), np.sin(views[:, 0]) * np.sin(views[:, 1]),
+                       np.cos(views[:, 0])], -1)
+        wi = dirs.reshape(-1, 3)
+        f = model.evaluate(np.broadcast_to(wi[None], (len(wo),) + wi.shape).reshape(-1, 3),
+                           np.broadcast_to(wo[:, None], (len(wo), len(wi), 3)).reshape(-1, 3), params)
+        f = np.where(np.isfinite(f) & (f > 0), f, 0.0).reshape(len(wo), -1)
+        mass = f * wi[None, :, 2] * solid.reshape(1, -1)
+        total = mass.sum(axis=1, keepdims=True)
+        mass = np.where(total > 0, mass / np.where(total > 0, total, 1.0), solid.reshape(1, -1) / solid.sum())
+        cdf = np.cumsum(mass, axis=1)
+        cdf[:, -1] = 1.0
+        return cls(vt, vp, cdf, mass / solid.reshape(1, -1), iso)
+
+    # --- the views around wo, with their weights
+    def _views(self, wo: np.ndarray):
+        theta = np.arccos(np.clip(wo[..., 2], -1.0, 1.0))
+        x = np.clip(theta / self.view_theta[-1] * (len(self.view_theta) - 1), 0.0, len(self.view_theta) - 1)
+        i0 = np.minimum(np.floor(x).astype(int), len(self.view_theta) - 2)
+        ti = x - i0
+        phi = np.mod(np.arctan2(wo[..., 1], wo[..., 0]), 2.0 * math.pi)
+        if self.isotropic:
+            return [(i0, 1.0 - ti, phi), (i0 + 1, ti, phi)]
+        P = len(self.view_phi)
+        y = phi / (2.0 * math.pi) * P
+        j0 = np.floor(y).astype(int) % P
+        tj = y - np.floor(y)
+        out = []
+        for di, wi_ in ((0, 1.0 - ti), (1, ti)):
+            for dj, wj in ((0, 1.0 - tj), (1, tj)):
+                out.append(((i0 + di) * P + (j0 + dj) % P, wi_ * wj, self.view_phi[(j0 + dj) % P]))
+        return out
+
+    def sample(self, wo: np.ndarray, u: np.ndarray) -> np.ndarray:
+        from brdflab.geometry.sampling import cosine_hemisphere
+
+        shape = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
+        wo = np.broadcast_to(wo, shape + (3,)).reshape(-1, 3)
+        u = np.broadcast_to(u, shape + (2,)).reshape(-1, 2).copy()
+        n = len(wo)
+        cosine = u[:, 1] < COSINE_SHARE
+        u[:, 1] = np.where(cosine, u[:, 1] / COSINE_SHARE, (u[:, 1] - COSINE_SHARE) / (1.0 - COSINE_SHARE))
+        # pick one of the neighbouring tables by its weight, reusing u.x
+        table = np.zeros(n, int)
+        rotation = np.zeros(n)
+        below = np.zeros(n)
+        pick = u[:, 0].copy()
+        for k, weight, phi in self._views(wo):
+            weight = np.broadcast_to(weight, (n,))
+            take = (pick >= below) & (pick < below + weight)
+            table = np.where(take, np.broadcast_to(k, (n,)), table)
+            rotation = np.where(take, np.broadcast_to(phi, (n,)), rotation)
+            u[:, 0] = np.where(take, (pick - below) / np.where(weight > 0, weight, 1.0), u[:, 0])
+            below = below + weight
+        u = np.clip(u, 0.0, np.nextafter(1.0, 0.0))
+        cells = self.cdf.shape[1]
+        flat = (self.cdf + np.arange(len(self.cdf))[:, None]).ravel()
+        cell = np.minimum(np.searchsorted(flat, u[:, 0] + table, side="right") - table * cells, cells - 1)
+        lo = np.where(cell > 0, self.cdf[table, np.maximum(cell - 1, 0)], 0.0)
+        hi = self.cdf[table, cell]
+        r = np.clip((u[:, 0] - lo) / np.where(hi > lo, hi - lo, 1.0), 0.0, 1.0)
+        it, ip = np.divmod(cell, N_PHI)
+        t_edges = np.linspace(0.0, 0.5 * math.pi, N_THETA + 1)
+        c0, c1 = np.cos(t_edges[it]), np.cos(t_edges[it + 1])
+        cos_t = c0 + r * (c1 - c0)
+        phi = (ip + u[:, 1]) * (2.0 * math.pi / N_PHI)
+        sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
+        local = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], -1)
+        wi = _rotate_z(local, rotation if self.isotropic else np.zeros(n))
+        wi = np.where(cosine[:, None], cosine_hemisphere(u), wi)
+        return wi.reshape(shape + (3,))
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        shape = np.broadcast_shapes(wi.shape[:-1], wo.shape[:-1])
+        wi = np.broadcast_to(wi, shape + (3,)).reshape(-1, 3)
+        wo = np.broadcast_to(wo, shape + (3,)).reshape(-1, 3)
+        n = len(wi)
+        out = np.zeros(n)
+        for k, weight, phi in self._views(wo):
+            local = _rotate_z(wi, -np.broadcast_to(phi, (n,))) if self.isotropic else wi
+            theta = np.arccos(np.clip(local[:, 2], -1.0, 1.0))
+            it = np.minimum((theta / (0.5 * math.pi) * N_THETA).astype(int), N_THETA - 1)
+            ip = np.minimum((np.mod(np.arctan2(local[:, 1], local[:, 0]), 2.0 * math.pi)
+                             / (2.0 * math.pi) * N_PHI).astype(int), N_PHI - 1)
+            out += np.broadcast_to(weight, (n,)) * self.density[np.broadcast_to(k, (n,)), it * N_PHI + ip]
+        out = (1.0 - COSINE_SHARE) * out + COSINE_SHARE * np.maximum(wi[:, 2], 0.0) / math.pi
+        return np.where(wi[:, 2] > 0, out, 0.0).reshape(shape)
+
+
+def equivalent_roughness(model, params: dict) -> float | None:
+    """The Beckmann α of a lobe for prefiltered lighting, measured on its own values at
+    normal view: a microfacet lobe there has albedo ≈ F and peak f(n, n) ≈ F D(n) / 4 with
+    D(n) = 1/(π α²) (Beckmann and GGX alike), so α = √(albedo / (4π f(n, n))). A lobe no
+    sharper than a Lambertian (α ≥ 0.5, where a Lambertian gives exactly 0.5) is lit by the
+    irradiance: None."""
+    _, dirs, solid = _cells()
+    wi = dirs.reshape(-1, 3)
+    up = np.array([[0.0, 0.0, 1.0]])
+    f = model.evaluate(wi, np.broadcast_to(up, wi.shape), params)
+    f = np.where(np.isfinite(f) & (f > 0), f, 0.0)
+    albedo = float((f * wi[:, 2] * solid.ravel()).sum())
+    peak = float(np.nan_to_num(model.evaluate(up, up, params)[0]))
+    if albedo <= 0 or peak <= 0:
+        return None
+    alpha = math.sqrt(albedo / (4.0 * math.pi * peak))
+    return None if alpha >= DIFFUSE_ALPHA else float(max(alpha, 0.01))
