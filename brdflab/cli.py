@@ -140,7 +140,10 @@ def _load_model_folders(args: argparse.Namespace) -> None:
         folders += [Path(e) for e in entries if Path(e).is_dir()]
         args.models = ",".join(e for e in entries if not Path(e).is_dir()) or None
     if folders:
-        load_folders(folders, warn=_warner(args))
+        warn = _warner(args)
+        for model in load_folders(folders, warn=warn):
+            for message in model.warnings:
+                warn(message)
 
 
 def cmd_fit(args: argparse.Namespace) -> int:

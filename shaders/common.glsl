@@ -1,7 +1,7 @@
 // Helpers shared by every lobe model (the GLSL twins of brdflab/vec.py and sampling.py).
 // Directions are in the local frame: z = normal. Parameters come as float p[NP] in the
-// order the model declares them (NP = brdflab.render.glsl.MAX_PARAMS; the rest are 0).
-const int NP = 16;
+// order the model declares them, then zeros. NP is defined by the program that includes this
+// (brdflab.render.glsl: the most parameters a lobe of the material has, at least 8).
 const float PI = 3.14159265358979;
 const float TINY = 1e-12;
 

@@ -38,6 +38,9 @@ class FitTask:
     combination: str  # Linear | Fixed
     options: dict  # every FitOptions field
     auto: tuple[tuple[str, object], ...] | None = None  # Auto's settings (models, split, tolerance)
+    # (path, sha256, registry name) of each model read from a file that the task fits: a
+    # worker process registers them before it builds the lobes
+    model_files: tuple[tuple[str, str, str], ...] = ()
 
     @property
     def lobe_label(self) -> str:
@@ -171,6 +174,10 @@ def run_task(task: FitTask) -> TaskOutcome:
     try:
         if file_sha256(path) != task.sha256:
             raise BRDFLabError("the file changed or differs on this worker (sha256 mismatch)", path)
+        from brdflab.models.files.library import rebuild
+
+        for model_path, model_sha, name in task.model_files:
+            rebuild(model_path, model_sha, name)
         source = load_source(path)
         result, fitting, error, message, seconds = (_fit_auto if task.auto is not None else _fit_lobes)(task, source)
     except Exception as e:  # a bad file or a failed fit is a row, not the end of the batch
@@ -201,13 +208,27 @@ def discover_sources(paths: list[Path]) -> list[Path]:
     return unique
 
 
+def model_files_of(names) -> tuple[tuple[str, str, str], ...]:
+    """What a worker needs to register the file models among `names` (built-ins need nothing)."""
+    from brdflab.models import get_model
+
+    out = {}
+    for name in names:
+        model = get_model(name)
+        if model.origin is not None:
+            out[name] = (str(model.origin.path), model.origin.sha256, model.name)
+    return tuple(out.values())
+
+
 def make_tasks(sources: list[Path], lobe_sets: list[tuple[str, ...]], combination: str, options: dict,
                auto: tuple[tuple[str, object], ...] | None = None) -> list[FitTask]:
     """One task per (source, lobe set), and per source one Auto task when `auto` is given."""
     tasks = []
+    auto_models = [m for m in dict(auto or ()).get("models", "").split(",") if m]
     for s in sources:
         sha = file_sha256(s)
-        tasks += [FitTask(str(s), sha, lobes, combination, options) for lobes in lobe_sets]
+        tasks += [FitTask(str(s), sha, lobes, combination, options, model_files=model_files_of(lobes))
+                  for lobes in lobe_sets]
         if auto is not None:
-            tasks.append(FitTask(str(s), sha, (), combination, options, auto))
+            tasks.append(FitTask(str(s), sha, (), combination, options, auto, model_files_of(auto_models)))
     return tasks

@@ -68,7 +68,7 @@ def baked_body(source) -> list[str]:
 def library_source(source) -> str:
     """The shared helpers and each model's GLSL that the baked function calls."""
     material = _material(source)
-    parts = [shader_source("common.glsl")]
+    parts = [f"const int NP = {MAX_PARAMS};  // parameters per lobe", shader_source("common.glsl")]
     for lobe in {l.model.name: l for l in material.lobes}.values():
         parts.append(model_source(lobe.model))
     return "\n".join(parts)

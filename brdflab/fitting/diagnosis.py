@@ -24,14 +24,17 @@ def at_bound(value: float, lower: float, upper: float, log: bool) -> str | None:
     return None
 
 
-def bound_warnings(material: AnalyticMaterial) -> list[str]:
+def bound_warnings(material: AnalyticMaterial, at_default: bool = True) -> list[str]:
     """One line per lobe parameter on a bound (scale-invariant directions excluded), and per
-    Fixed value at the material cap."""
+    Fixed value at the material cap. at_default=False leaves out a parameter that is at its
+    model's default (a designed material: Disney's metallic = 0 is a choice, not a symptom)."""
     out = []
     for k, lobe in enumerate(material.lobes):
         for p in lobe.model.parameters:
             if p.name in lobe.model.scale_invariant or not p.fitted or p.lower == p.upper:
                 continue  # a switch (a file's bool) sits on a bound by design
+            if not at_default and lobe.params[p.name] == p.default:
+                continue
             side = at_bound(lobe.params[p.name], p.lower, p.upper, p.log)
             if side is not None:
                 bound = p.lower if side == "lower" else p.upper

@@ -24,6 +24,9 @@ from brdflab.io.mesh import default_mesh, load_mesh
 from brdflab.io.resources import data_dir
 from brdflab.sources.proxy import proxy_lobes
 from brdflab.workspace import OPEN_FILTER, Workspace
+from brdflab.models.files.library import MissingModelFile
+
+MODEL_FILTER = "Model files (*.brdf *.xml);;BRDF Explorer (*.brdf);;BRDFLab model descriptors (*.xml);;All files (*)"
 from brdflab.io.atomic import atomic_write
 from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
@@ -253,6 +256,85 @@ class MainWindow(QMainWindow):
             self._fit_screen()
         self._object_settings_changed()
         self.set_workspace(self.workspace)
+        self.load_model_folders()
+
+    # --- models from files ------------------------------------------------------------------------
+    def model_folders(self) -> list[Path]:
+        """The folder chosen in the settings, then BRDFLAB_MODELS's."""
+        from brdflab.models.files.library import env_folders
+
+        chosen = self.settings.value("models/folder")
+        return ([Path(chosen)] if chosen else []) + env_folders()
+
+    def load_model_folders(self) -> None:
+        """Read every model file in the model folders (off the GUI thread); a file that cannot
+        be used is said in the status bar and the banner, the others are added."""
+        from brdflab.models.files.library import load_folders
+
+        folders = [f for f in self.model_folders() if f.is_dir()]
+        if not folders:
+            return
+        problems: list[str] = []
+
+        def work(_path):
+            return load_folders(folders, warn=problems.append)
+
+        def apply(models) -> None:
+            self.editor.refresh_models()
+            self.set_warning("models", "<br>".join(problems[:3]) if problems else None)
+            self.statusBar().showMessage(f"{len(models)} model(s) from {', '.join(map(str, folders))}"
+                                         + (f"; {len(problems)} file(s) could not be used" if problems else ""), 10000)
+
+        self._load("models from", folders[0], work, apply)
+
+    def model_folder_dialog(self) -> None:
+        name = QFileDialog.getExistingDirectory(self, "Model folder", self.settings.value("models/folder") or "")
+        if name:
+            self.settings.setValue("models/folder", name)
+            self.load_model_folders()
+
+    def add_model_file_dialog(self) -> None:
+        self._ask_and_open("Add model from file", "models", MODEL_FILTER, self.add_model_file)
+
+    def add_model_file(self, path: Path) -> None:
+        """Read a model file (checked off the GUI thread) and add a lobe of it at its defaults."""
+        from brdflab.models.files.library import load_model_file
+
+        def apply(model) -> None:
+            self.editor.refresh_models(select=model.name)
+            self.statusBar().showMessage(f"added the model {model.name} ({model.origin.format} file {path})", 10000)
+            for warning in model.warnings:
+                self.statusBar().showMessage(warning, 10000)
+            if self.workspace.editable() is not None:
+                self._edit(ws_ops.with_lobe_added(self.workspace.editable(), model.name), f"Add {model.name} lobe")
+
+        self._load("model", path, load_model_file, apply)
+
+    def locate_model(self, document: Path, missing) -> None:
+        """A material names a model file that is not there: ask for it, then open the material
+        again (everything else in it is read as before)."""
+        box = QMessageBox(QMessageBox.Warning, "BRDFLab", str(missing), QMessageBox.Cancel, self)
+        locate = box.addButton("Locate model file…", QMessageBox.AcceptRole)
+        box.exec()
+        if box.clickedButton() is not locate:
+            return
+        name, _ = QFileDialog.getOpenFileName(self, f"Locate the model {missing.model_name}", self._folder("models"),
+                                              MODEL_FILTER)
+        if name:
+            self.use_located_model(document, missing.model_name, Path(name))
+
+    def use_located_model(self, document: Path, model_name: str, path: Path) -> None:
+        """Read the model file the user found for `model_name`, then open `document` again."""
+        from brdflab.models.files.library import load_model_file
+
+        def apply(model) -> None:
+            if model.xml_name != model_name:
+                self.show_error(f"{path}: defines the model {model.xml_name!r}, not {model_name!r}")
+                return
+            self.editor.refresh_models()
+            self.open_path(document)
+
+        self._load("model", path, load_model_file, apply)
 
     # --- set-up ------------------------------------------------------------------------------
     def _build_menus(self) -> None:
@@ -266,6 +348,8 @@ class MainWindow(QMainWindow):
             ("Open &environment…", "Ctrl+E", self.open_environment_dialog),
             ("&Save", QKeySequence.Save, self.save),
             ("Save &As…", QKeySequence.SaveAs, self.save_as),
+            ("Add model from &file…", "", self.add_model_file_dialog),
+            ("Model f&older…", "", self.model_folder_dialog),
         ):
             action = QAction(text, self)
             action.setShortcut(shortcut)
@@ -364,6 +448,7 @@ class MainWindow(QMainWindow):
         e.scale_edited.connect(lambda k, c, v: self._edit(ws_ops.with_scale(self.workspace.editable(), k, c, v),
                                                           "Set scale", (k, "scale", c)))
         e.lobe_added.connect(lambda m: self._edit(ws_ops.with_lobe_added(self.workspace.editable(), m), f"Add {m} lobe"))
+        e.model_file_requested.connect(self.add_model_file_dialog)
         e.lobe_removed.connect(lambda k: self._edit(ws_ops.with_lobe_removed(self.workspace.editable(), k), "Remove lobe"))
         e.lobe_moved.connect(lambda k, d: self._edit(ws_ops.with_lobe_moved(self.workspace.editable(), k, d), "Move lobe"))
         e.combination_changed.connect(lambda c: self._edit(ws_ops.with_combination(self.workspace.editable(), c), f"{c} combination"))
@@ -462,7 +547,7 @@ class MainWindow(QMainWindow):
         if ws.fitted() is not None:
             found += [f"fit {ws.shown_fit}, " + b for b in bound_warnings(ws.fitted())]
         if ws.analytic is not None:
-            found += bound_warnings(ws.analytic)
+            found += bound_warnings(ws.analytic, at_default=False)
         more = f" and {len(found) - 3} more" if len(found) > 3 else ""
         self.set_warning("bounds", "At a bound: " + "; ".join(found[:3]) + more if found else None)
 
@@ -742,6 +827,9 @@ class MainWindow(QMainWindow):
             self.load_progress.setVisible(bool(self._loads))
             try:
                 result = future.result()
+            except MissingModelFile as e:
+                self.locate_model(Path(path), e)
+                return
             except BRDFLabError as e:
                 self.show_error(str(e))
                 return

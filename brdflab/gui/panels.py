@@ -101,6 +101,7 @@ class MaterialEditor(QWidget):
     parameter_edited = Signal(int, str, float)  # lobe, parameter, value
     scale_edited = Signal(int, int, float)  # lobe, channel, value
     lobe_added = Signal(str)
+    model_file_requested = Signal()  # "From file…": add a lobe of a model read from a file
     lobe_removed = Signal(int)
     lobe_moved = Signal(int, int)
     combination_changed = Signal(str)
@@ -114,9 +115,12 @@ class MaterialEditor(QWidget):
         self.tree.setHeaderLabels(["Lobe", "Scale / value"])
         self.tree.currentItemChanged.connect(lambda *_: self._show_lobe())
         self.model_box = QComboBox()
-        self.model_box.addItems(model_names())
+        self.refresh_models()
         add = QPushButton("Add")
-        add.clicked.connect(lambda: self.lobe_added.emit(self.model_box.currentText()))
+        add.clicked.connect(lambda: self.lobe_added.emit(self.model_box.currentData()))
+        from_file = QPushButton("From file…")
+        from_file.setToolTip("Add a lobe of a model from a BRDF Explorer .brdf or a BRDFLab model descriptor")
+        from_file.clicked.connect(self.model_file_requested.emit)
         remove = QPushButton("Remove")
         remove.clicked.connect(lambda: self.current() is not None and self.lobe_removed.emit(self.current()))
         up, down = QPushButton("Up"), QPushButton("Down")
@@ -148,12 +152,32 @@ class MaterialEditor(QWidget):
         buttons.addWidget(add, 0, 2)
         for column, w in enumerate((remove, up, down)):
             buttons.addWidget(w, 1, column)
+        buttons.addWidget(from_file, 2, 0, 1, 3)
         lay = QVBoxLayout(self)
         lay.addLayout(top)
         lay.addWidget(self.tree, 2)
         lay.addLayout(buttons)
         lay.addWidget(params_box, 3)
         lay.addWidget(self.energy)
+
+    def refresh_models(self, select: str | None = None) -> None:
+        """The models one can add: the built-ins, then every model read from a file, named
+        with its file (its full path in the tooltip)."""
+        from brdflab.models import all_models
+
+        keep = select or self.model_box.currentData()
+        with QSignalBlocker(self.model_box):
+            self.model_box.clear()
+            for model in all_models():
+                if model.origin is None:
+                    self.model_box.addItem(model.name, model.name)
+            for model in all_models():
+                if model.origin is not None:
+                    self.model_box.addItem(f"{model.xml_name} — {model.origin.path.name}", model.name)
+                    self.model_box.setItemData(self.model_box.count() - 1,
+                                               f"{model.origin.format}: {model.origin.path}", Qt.ToolTipRole)
+            index = self.model_box.findData(keep) if keep else -1
+            self.model_box.setCurrentIndex(max(index, 0))
 
     def current(self) -> int | None:
         item = self.tree.currentItem()
@@ -181,6 +205,8 @@ class MaterialEditor(QWidget):
             for k, lobe in enumerate(material.lobes):
                 label = lobe.model.name + (f"  (channel {lobe.channel})" if lobe.channel is not None else "")
                 item = QTreeWidgetItem([label, _scale_text(lobe)])
+                if lobe.model.origin is not None:
+                    item.setToolTip(0, f"{lobe.model.origin.format}: {lobe.model.origin.path}")
                 item.setData(0, Qt.UserRole, k)
                 self.tree.addTopLevelItem(item)
             if material.lobes:

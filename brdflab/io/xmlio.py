@@ -414,13 +414,17 @@ class _Reader:
     def model_of(self, el: etree._Element, model_name: str):
         """The lobe's model: a <ModelFile> names the file model's file (relative to the
         material) and checksum; else a built-in, else a model read from the model folders."""
-        from brdflab.models.files.library import resolve_reference
+        from brdflab.models.files.library import MissingModelFile, resolve_reference
         from brdflab.models.registry import find_file_model
 
         ref = el.find("ModelFile")
         try:
             if ref is not None:
-                return resolve_reference(model_name, ref.get("path"), ref.get("sha256"), self.base_dir)
+                model = resolve_reference(model_name, ref.get("path"), ref.get("sha256"), self.base_dir)
+                if ref.get("sha256") and ref.get("sha256") != model.origin.sha256:
+                    self.warnings.append(f"line {ref.sourceline}: the model file {model.origin.path} is not the one "
+                                         f"the material was saved with (its sha256 differs)")
+                return model
             try:
                 return get_model(model_name)
             except BRDFLabError:
@@ -428,6 +432,9 @@ class _Reader:
                 if found is None:
                     raise
                 return found
+        except MissingModelFile as e:
+            where = self.fail(el.find("Model") if ref is None else ref, str(e))
+            raise MissingModelFile(str(where), None, e.model_name, e.recorded) from None
         except BRDFLabError as e:
             raise self.fail(el.find("Model") if ref is None else ref, str(e)) from None
 

@@ -14,7 +14,7 @@ from brdflab.material.analytic import AnalyticMaterial
 from brdflab.models import LobeModel
 from brdflab.io.resources import shader_path
 
-MAX_PARAMS = 16  # NP in shaders/common.glsl: the most parameters one lobe has
+MAX_PARAMS = 16  # the most parameters one lobe has (a program's NP lies between 8 and this)
 BUILTIN_PARAMS = 8  # the most a built-in has: a material of built-ins passes 8 per lobe
 MAX_LOBES = 64  # the shader unrolls every lobe and holds its parameters in uniforms
 GLSL_VERSION = "#version 330 core\n"
@@ -48,7 +48,7 @@ def material_source(models: tuple[str, ...], measured: bool = False, n_channels:
 
     n = len(models)
     width = params_per_lobe(models)
-    parts = [shader_source("common.glsl")]
+    parts = [f"#define NP {width}", shader_source("common.glsl")]
     for name in dict.fromkeys(models):
         parts.append(model_source(get_model(name)))
     lines = [
@@ -58,7 +58,7 @@ def material_source(models: tuple[str, ...], measured: bool = False, n_channels:
         f"uniform float u_lobe_share[{n}];",
         "float[NP] lobe_params(int k) {",
         "    float p[NP];",
-        f"    for (int i = 0; i < NP; i++) p[i] = i < {width} ? u_lobe_p[{width} * k + i] : 0.0;",
+        "    for (int i = 0; i < NP; i++) p[i] = u_lobe_p[NP * k + i];",
         "    return p;",
         "}",
         "vec3 material_eval(vec3 wi, vec3 wo) {",

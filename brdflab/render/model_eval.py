@@ -37,7 +37,7 @@ def _vertex_shader(model, per_pair: bool) -> tuple[str, int]:
         head += "".join(f"in vec4 in_p{k};\n" for k in range(MAX_PARAMS // 4))
     else:
         head += f"uniform float u_p[{MAX_PARAMS}];\n"
-    head += "out vec3 out_f;\n" + shader_source("common.glsl") + "\n"
+    head += f"out vec3 out_f;\n#define NP {MAX_PARAMS}\n" + shader_source("common.glsl") + "\n"
     start = head.count("\n") + 1
     source = model.glsl_source()
     gid = model.glsl_id

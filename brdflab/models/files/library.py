@@ -136,6 +136,15 @@ def resolve_lobe(text: str) -> str:
     return text
 
 
+class MissingModelFile(BRDFLabError):
+    """A material names a file model that cannot be found (the GUI offers to locate it)."""
+
+    def __init__(self, message: str, path=None, model_name: str = "", recorded: str | None = None) -> None:
+        super().__init__(message, path)
+        self.model_name = model_name
+        self.recorded = recorded
+
+
 def resolve_reference(model_name: str, path_text: str | None, sha256: str | None, base_dir: Path | None) -> FileModel:
     """The file model a material's lobe names: by its recorded path (relative to the
     material's folder), else a registered model of that name and checksum. BRDFLabError that
@@ -148,12 +157,13 @@ def resolve_reference(model_name: str, path_text: str | None, sha256: str | None
             if model.xml_name != model_name:
                 raise BRDFLabError(f"the model file defines {model.xml_name!r}, not {model_name!r}", candidate)
             return model
-    found = find_file_model(model_name, sha256) or (find_file_model(model_name) if not sha256 else None)
+    found = find_file_model(model_name, sha256) or find_file_model(model_name)
     if found is not None:
-        return found
+        return found  # the reader warns when its checksum is not the one recorded
     where = f" from {path_text}" if path_text else ""
-    raise BRDFLabError(f"the lobe model {model_name!r}{where} is not available: its model file is missing "
-                       f"(put it back, or add its folder with --models DIR or {ENV})")
+    raise MissingModelFile(f"the lobe model {model_name!r}{where} is not available: its model file is missing "
+                           f"(put it back, or add its folder with --models DIR or {ENV})",
+                           model_name=model_name, recorded=path_text)
 
 
 def rebuild(path: str, sha256: str, name: str) -> FileModel:

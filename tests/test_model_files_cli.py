@@ -1,0 +1,103 @@
+"""Models from files on the command line (issue 28, point 1): folders (--models, BRDFLAB_MODELS),
+model files as materials and as lobes, fits whose materials name their model file, and a
+model file that went missing."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from lxml import etree
+
+from brdflab.io.resources import shared_data_dir
+
+SHARED = shared_data_dir()
+pytestmark = pytest.mark.skipif(SHARED is None or not (SHARED / "models").is_dir(), reason="needs ../shared/data")
+EXPLORER = SHARED / "models" / "brdf_explorer" if SHARED else None
+SLICE = SHARED / "merl_slices" / "red-specular-plastic.slice" if SHARED else None
+
+
+def brdflab(*args, env=None, cwd=None):
+    """The command as a user runs it: a new process, so nothing is registered beforehand."""
+    full = {**os.environ, **(env or {})}
+    return subprocess.run([sys.executable, "-m", "brdflab", *map(str, args)], capture_output=True, text=True,
+                          env=full, cwd=cwd, timeout=600)
+
+
+def test_models_lists_the_files_of_a_folder_given_by_option_or_environment(tmp_path):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    shutil.copy(EXPLORER / "walter.brdf", folder)
+    shutil.copy(SHARED / "models" / "brdflab" / "Ward.xml", folder)
+    for how in (["--models", folder], []):
+        env = {} if how else {"BRDFLAB_MODELS": str(folder)}
+        done = brdflab("models", "--json", *how, env=env)
+        assert done.returncode == 0, done.stderr
+        models = {m["id"]: m for m in json.loads(done.stdout.splitlines()[-1])["models"]}
+        assert models["walter"]["file"] == str((folder / "walter.brdf").resolve())
+        assert models["Ward [Ward.xml]"]["xml_name"] == "Ward" and models["Ward"].get("file") is None
+        assert "its own importance sampling is not used" in done.stderr  # Ward.xml's sampler
+
+
+def test_a_model_file_stands_where_a_material_does(tmp_path):
+    pairs = tmp_path / "pairs.npy"
+    rng = np.random.default_rng(2)
+    w = rng.normal(size=(2, 50, 3))
+    w[..., 2] = np.abs(w[..., 2])
+    w /= np.linalg.norm(w, axis=-1, keepdims=True)
+    np.save(pairs, np.concatenate([w[0], w[1]], axis=1))
+    done = brdflab("eval", EXPLORER / "orennayar.brdf", "--pairs", pairs, "--out", tmp_path / "v.npy", "--json")
+    assert done.returncode == 0, done.stderr
+    values = np.load(tmp_path / "v.npy")
+    assert values.shape == (50, 3) and (values > 0).all() and np.allclose(values[:, 0], values[:, 2])
+    done = brdflab("render", EXPLORER / "disney.brdf", "--view", "reference", "--size", "32,32", "--out",
+                   tmp_path / "d.exr", "--json")
+    assert done.returncode == 0, done.stderr
+
+
+def test_a_fit_with_a_file_lobe_saves_its_file_and_reopens_elsewhere(tmp_path):
+    work = tmp_path / "work"
+    (work / "models").mkdir(parents=True)
+    shutil.copy(EXPLORER / "walter.brdf", work / "models" / "walter.brdf")
+    done = brdflab("fit", SLICE, "--lobes", "Lambertian,models/walter.brdf", "--samples", "subset", "--size", "3000",
+                   "--out", "fit.xml", "--json", cwd=work)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.splitlines()[-1])
+    ref = etree.parse(str(work / "fit.xml")).find(".//Fitting//ModelFile")
+    assert ref.get("path") == "models/walter.brdf" and len(ref.get("sha256")) == 64
+    # the folder moves: the material finds its model file beside it, and evaluates the same
+    moved = tmp_path / "moved"
+    shutil.move(work, moved)
+    done = brdflab("info", moved / "fit.xml", "--json")
+    assert done.returncode == 0, done.stderr
+    lobes = json.loads(done.stdout.splitlines()[-1])["fittings"][0]["material"]["lobes"]
+    assert [l["model"] for l in lobes] == ["Lambertian", "walter"]
+    assert result["error"] > 0
+    # without the model file: one line naming it, exit status 2
+    (moved / "models" / "walter.brdf").unlink()
+    done = brdflab("info", moved / "fit.xml")
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert "'walter' from models/walter.brdf is not available" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_auto_and_batch_climb_and_fit_with_file_models(tmp_path):
+    done = brdflab("fit", SLICE, "--auto", "--models", f"CookTorranceGGX,{EXPLORER / 'walter.brdf'}", "--size", "2000",
+                   "--max-iterations", "30", "--json")
+    assert done.returncode == 0, done.stderr
+    ladder = json.loads(done.stdout.splitlines()[-1])
+    tried = {lobe for rung in ladder["candidates"] for lobe in rung["lobes"]}
+    assert "walter" in tried
+    data = tmp_path / "data"
+    data.mkdir()
+    shutil.copy(SLICE, data)
+    done = brdflab("batch", data, "--lobes", f"Lambertian,{EXPLORER / 'walter.brdf'}", "--workers", "1",
+                   "--max-iterations", "20", "--out", tmp_path / "out", "--json")
+    assert done.returncode == 0, done.stderr
+    table = (tmp_path / "out" / "results.csv").read_text()
+    assert "walter" in table and "failed" not in table
