@@ -142,7 +142,7 @@ def _load_model_folders(args: argparse.Namespace) -> None:
     if folders:
         warn = _warner(args)
         for model in load_folders(folders, warn=warn):
-            for message in model.warnings:
+            for message in model.warnings if args.command == "models" else ():  # not on every command
                 warn(message)
 
 
@@ -581,12 +581,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_examples)
 
     p = _add(sub, "info", "what a material or data file holds")
-    p.add_argument("file", type=material_path, help="XML material, measured data, or example:NAME")
+    p.add_argument("file", type=material_path, help="XML material, measured data, a model file (.brdf, model descriptor: one lobe at its defaults) or example:NAME")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
     p.set_defaults(func=cmd_info)
 
     p = _add(sub, "eval", "evaluate a material at direction pairs")
-    p.add_argument("material", type=material_path, help="XML material, measured data, or example:NAME")
+    p.add_argument("material", type=material_path, help="XML material, measured data, a model file (.brdf, model descriptor: one lobe at its defaults) or example:NAME")
     p.add_argument("--pairs", required=True, help="(N, 6) .npy array [wi | wo] in the local frame")
     p.add_argument("--out", required=True, help="(N, C) .npy output")
     p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="evaluate the K-th stored fit (0-based)")
@@ -600,14 +600,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("source", type=material_path,
                    help="measured data file, XML material (or example:NAME), or XML with fits (see --fitting)")
     which = p.add_mutually_exclusive_group()
-    which.add_argument("--lobes", help="comma-separated lobe models, e.g. Lambertian,LafortuneIso")
+    which.add_argument("--lobes", help="comma-separated lobe models or model files, e.g. Lambertian,LafortuneIso or Lambertian,mine.brdf")
     which.add_argument("--auto", action="store_true",
                        help="climb a ladder of candidates (Lambertian, + one lobe of each model, two, three) "
                             "and keep the cheapest that more lobes no longer improve by more than --tolerance "
                             "on held-back samples; prints the ladder")
     p.add_argument("--tolerance", type=float, default=None,
                    help="with --auto: the relative held-back error gain a rung must beat (default 0.05)")
-    p.add_argument("--models", help="with --auto: the lobe models the ladder tries, comma-separated (default: all)")
+    p.add_argument("--models", help="with --auto: the lobe models the ladder tries, comma-separated names or model "
+                                    "files (default: all); a folder in the list adds its model files, as --models DIR "
+                                    "does on other commands")
     p.add_argument("--combination", choices=["linear", "fixed"], default="linear", help="how lobes combine")
     p.add_argument("--metric", default=DEFAULT_METRIC, help="Ngan, L2 or cosL2")
     p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"], help="of the values fitted")
@@ -640,7 +642,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "its row's error is the pick's on all samples")
     p.add_argument("--tolerance", type=float, default=None,
                    help="with --auto: the relative held-back error gain a rung must beat (default 0.05)")
-    p.add_argument("--models", help="with --auto: the lobe models the ladder tries, comma-separated (default: all)")
+    p.add_argument("--models", help="with --auto: the lobe models the ladder tries, comma-separated names or model "
+                                    "files (default: all); a folder in the list adds its model files, as --models DIR "
+                                    "does on other commands")
     p.add_argument("--metric", default=DEFAULT_METRIC, help="L2, cosL2 or Ngan (as for fit)")
     p.add_argument("--combination", choices=["linear", "fixed"], default="linear", help="how lobes combine")
     p.add_argument("--max-iterations", type=int, default=200, help="Levenberg–Marquardt iterations")
@@ -652,7 +656,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_batch)
 
     p = _add(sub, "render", "offscreen render of a material")
-    p.add_argument("material", type=material_path, help="XML material, measured data file, or example:NAME")
+    p.add_argument("material", type=material_path, help="XML material, measured data file, a model file (.brdf, model descriptor: one lobe at its defaults) or example:NAME")
     p.add_argument("--mode", choices=["point", "fis", "sh", "prefiltered", "mis", "auto"], default="point",
                    help="point light, filtered importance sampling of --env, spherical harmonics, "
                         "prefiltered lighting (the split sum), mis: the BRDF's and the map's importance "
@@ -701,7 +705,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_simulate)
 
     p = _add(sub, "export", "write a material or stored fit for other tools")
-    p.add_argument("source", type=material_path, help="XML material, measured data file, or example:NAME")
+    p.add_argument("source", type=material_path, help="XML material, measured data file, a model file (.brdf, model descriptor: one lobe at its defaults) or example:NAME")
     p.add_argument("--format", choices=["merl", "brdf-explorer", "glsl"], required=True,
                    help="merl: a MERL .binary table (any source, tabulated); brdf-explorer: a Disney BRDF Explorer .brdf; glsl: a GLSL function with the parameters baked in")
     p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="export the K-th stored fit")

@@ -20,6 +20,18 @@ def random_upper(rng, n):
     return unit(v)
 
 
+@pytest.fixture(autouse=True)
+def _registry_as_it_was():
+    """Models read from files by one test leave the registry with it: every other test sees
+    the built-ins alone (as a user's process without model folders does)."""
+    from brdflab.models.registry import _MODELS
+
+    before = dict(_MODELS)
+    yield
+    _MODELS.clear()
+    _MODELS.update(before)
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)

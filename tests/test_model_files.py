@@ -4,13 +4,11 @@ read from the shared corpora exactly as those tools shipped them."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from brdflab.models import get_model
-from brdflab.models.files import read_model_file
 from brdflab.models.files.library import load_model_file, probe_pairs
 from brdflab.io.resources import shared_data_dir
 
@@ -262,8 +260,9 @@ def renderers():
 
     ctx = create_context()
     renderer = ObjectRenderer(ctx)
-    renderer.set_environment(load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"))
-    return renderer, LobeViewer(ctx)
+    venice = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr").downsampled(128, 64)
+    renderer.set_environment(venice)
+    return renderer, LobeViewer(ctx), venice
 
 
 @pytest.mark.parametrize("path", EXPLORER + DESCRIPTORS, ids=lambda p: p.name)
@@ -274,7 +273,8 @@ def test_every_corpus_model_draws_in_the_lobe_viewer_and_renders_in_every_mode(p
     from brdflab.material.analytic import AnalyticMaterial, Lobe
     from brdflab.render.object_view import RenderSettings
 
-    renderer, viewer = renderers
+    renderer, viewer, venice = renderers
+    renderer.set_environment(venice)
     model = load_model_file(path)
     params = model.defaults()
     if path.stem == "showVectors":
@@ -293,3 +293,62 @@ def test_every_corpus_model_draws_in_the_lobe_viewer_and_renders_in_every_mode(p
                                                light=(0.3, 0.2, 0.9)))
         assert np.isfinite(image).all(), mode
         assert image.max() > 0, mode
+    # a white furnace: prefiltered lighting is the albedo factor alone, against quadrature
+    from brdflab.lighting.envmap import EnvironmentMap
+    from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
+
+    furnace = EnvironmentMap(np.ones((32, 64, 3), np.float32))
+    renderer.set_environment(furnace)
+    image = renderer.render(RenderSettings(mode="prefiltered", width=12, height=12, reference_view=True))
+    inside = sphere_view(12, 12).inside & (sphere_view(12, 12).normal[..., 2] > math.cos(math.radians(70)))
+    assert relative_rmse(image, environment_image(material, furnace, 12, 12), inside) < 0.02
+
+
+@pytest.mark.parametrize("name", ["disney.brdf", "walter.brdf"])
+def test_the_renderers_sample_a_file_lobe_from_the_same_tables_as_numpy(name, renderers):
+    """shaders/tabulated.glsl draws the directions and gives the densities of the NumPy
+    sampler (same tables): the densities agree to float precision, the directions drawn from
+    the same uniforms fall in the same cells, and a FIS render converges to quadrature."""
+    from brdflab.lighting.envmap import load_environment
+    from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+    from brdflab.io.resources import data_dir
+    from brdflab.render.glsl import GLSL_VERSION, lobe_uniforms, material_source, set_uniforms
+    from brdflab.render.object_view import RenderSettings
+    from brdflab.render.tabulated import TabulatedTextures
+
+    renderer, _, _ = renderers
+    renderer.ctx.extra["default_fbo"].use()  # Mesa runs no transform feedback without a bound framebuffer
+    model = load_model_file(SHARED / "models" / "brdf_explorer" / name)
+    params = model.defaults()
+    if name == "disney.brdf":
+        params.update(roughness=0.25, anisotropic=0.6, metallic=0.5)
+    material = AnalyticMaterial("m", "Linear", 3, [Lobe(model, params, [1.0, 1.0, 1.0])])
+    ctx = renderer.ctx
+    src = (GLSL_VERSION + "in vec3 in_wi; in vec3 in_wo; out vec4 out_v;\n" + material_source((model.name,))
+           + "void main() { out_v = vec4(material_sample(0, in_wo, in_wi.xy), material_pdf(in_wi, in_wo)); }\n")
+    prog = ctx.program(vertex_shader=src, varyings=["out_v"])
+    set_uniforms(prog, lobe_uniforms(material, np.ones(1)))
+    TabulatedTextures(ctx).bind(prog, material)
+    wi, wo = _pairs(3000, seed=5)
+    u = np.random.default_rng(6).random((3000, 2))
+    gpu_in = np.concatenate([wi[:, :2] * 0 + u, wi[:, 2:]], axis=1)  # in_wi.xy carries u for the sampler
+    out = ctx.buffer(reserve=3000 * 16)
+    both = [(ctx.buffer(np.ascontiguousarray(a, np.float32).tobytes()), "3f", n) for a, n in ((wi, "in_wi"), (wo, "in_wo"))]
+    ctx.vertex_array(prog, both).transform(out, vertices=3000)
+    v = np.frombuffer(out.read(), np.float32).reshape(-1, 4).astype(float)
+    pdf_cpu = model.pdf(wi, wo, params)
+    assert np.allclose(v[:, 3], pdf_cpu, rtol=2e-4, atol=1e-6)
+    # directions drawn from the same uniforms (the GPU reads u from in_wi.xy: draw again)
+    ctx.vertex_array(prog, [(ctx.buffer(np.ascontiguousarray(gpu_in, np.float32).tobytes()), "3f", "in_wi"),
+                            both[1]]).transform(out, vertices=3000)
+    drawn = np.frombuffer(out.read(), np.float32).reshape(-1, 4)[:, :3].astype(float)
+    # the same cell (1.4° × 2.8°); within it float32 CDFs place the point a little differently
+    same = np.linalg.norm(drawn - model.sample(wo, u, params), axis=1) < 0.05
+    assert same.mean() > 0.99  # the rest: a neighbouring cell or view, at a float32 boundary
+    env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr").downsampled(128, 64)
+    renderer.set_environment(env)
+    renderer.set_source(material)
+    image = renderer.render(RenderSettings("fis", 24, 24, samples=1024, reference_view=True))
+    reference = environment_image(material, env, 24, 24)
+    assert relative_rmse(image, reference, sphere_view(24, 24).inside) < 0.05

@@ -40,7 +40,7 @@ CASES = {
     "default-outside.brdf": (brdf(params="float k 0 1 2"), "its default 2 is outside [0, 1]"),
     "duplicate.brdf": (brdf(params="float k 0 1 .5\nfloat k 0 1 .5"), "parameter 'k' is declared twice"),
     "too-many.brdf": (brdf(params="\n".join(f"float k{i} 0 1 .5" for i in range(40)), line="return vec3(k0);"),
-                      "40 parameters (counting each colour as three) is more than the 16"),
+                      "40 parameters (counting each colour as three) is more than the 32"),
     "unicode-digit.brdf": (brdf(params="float k 0 1 \uff13"), "is not a number"),
     "bool-two.brdf": (brdf(params="bool k 2", line="return vec3(k ? 1.0 : 0.5);"), "its default must be 0 or 1"),
     "int-type.brdf": (brdf(params="int k 0 1 0"), "unknown parameter type 'int'"),
@@ -59,6 +59,10 @@ CASES = {
     "entity.xml": (descriptor(head='<!DOCTYPE BRDFModel [<!ENTITY e "7">]>\n'), "entity"),
     "wrong-root.xml": (descriptor(root="AnalyticBRDFModelX").replace("AnalyticBRDFModelX", "Model", 2)
                        .replace("<!DOCTYPE BRDFModel>", "<!-- AnalyticBRDFModel -->"), "not a BRDFLab model descriptor"),
+    "formula-glsl-disagree.xml": (descriptor(glsl="<Equation_GLSL>\n float BadBRDF(vec3 u, vec3 v, int j)\n"
+                                             " { return 2.0 * params[j]; }\n</Equation_GLSL>"),
+                                  "its <Equation> and <Equation_GLSL> disagree by up to 50.00%"),
+    "bom.brdf": (b"\xef\xbb\xbf" + brdf(params="float k 1 0 .5").encode(), "its minimum 1 is above its maximum 0"),
     "descriptor-min-max.xml": (descriptor(params='<Parameter name="value" defaultVal="1" lowBound="5" highBound="0"/>'),
                                "its minimum 5 is above its maximum 0"),
     "descriptor-glsl-error.xml": (descriptor(glsl="<Equation_GLSL>\n float BadBRDF(vec3 u, vec3 v, int j)\n"

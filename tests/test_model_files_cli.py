@@ -9,7 +9,6 @@ import os
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -79,6 +78,11 @@ def test_a_fit_with_a_file_lobe_saves_its_file_and_reopens_elsewhere(tmp_path):
     lobes = json.loads(done.stdout.splitlines()[-1])["fittings"][0]["material"]["lobes"]
     assert [l["model"] for l in lobes] == ["Lambertian", "walter"]
     assert result["error"] > 0
+    # a model file edited since the fit was saved: used, and every command says so
+    edited = moved / "models" / "walter.brdf"
+    edited.write_text(edited.read_text().replace("float Ks 0 1 .1", "float Ks 0 1 .2"))
+    done = brdflab("render", moved / "fit.xml", "--fitting", 0, "--size", "16,16", "--out", tmp_path / "e.png")
+    assert done.returncode == 0 and "is not the one the material was saved with" in done.stderr
     # without the model file: one line naming it, exit status 2
     (moved / "models" / "walter.brdf").unlink()
     done = brdflab("info", moved / "fit.xml")
@@ -101,3 +105,35 @@ def test_auto_and_batch_climb_and_fit_with_file_models(tmp_path):
     assert done.returncode == 0, done.stderr
     table = (tmp_path / "out" / "results.csv").read_text()
     assert "walter" in table and "failed" not in table
+
+
+@pytest.mark.parametrize("slice_name", ["red-specular-plastic", "nickel"])
+def test_disney_from_its_file_fits_a_plastic_and_a_metal_and_the_saved_fit_scores_the_same_elsewhere(slice_name, tmp_path):
+    """disney.brdf fitted through the CLI (5,000 samples, scored on all), saved, and the saved
+    fit evaluated again by `brdflab eval` in another process at every sample of the slice: the
+    Ngan error computed here from those values (plain NumPy, no Gram matrices, no fitter)
+    is the one the fit reported; the fit renders."""
+    from brdflab.fitting.samples import samples_of
+    from brdflab.fitting.metrics import NGAN_MAX_COS
+    from brdflab.sources.files import load_source
+
+    source_path = SHARED / "merl_slices" / f"{slice_name}.slice"
+    out = tmp_path / "fit.xml"
+    done = brdflab("fit", source_path, "--lobes", EXPLORER / "disney.brdf", "--samples", "subset", "--size", "5000",
+                   "--out", out, "--json")
+    assert done.returncode == 0, done.stderr
+    reported = json.loads(done.stdout.splitlines()[-1])["error"]
+    chunks = list(samples_of(load_source(source_path)).chunks())
+    wi, wo, y, measure = (np.concatenate(c) for c in zip(*chunks))
+    inside = (wi[:, 2] >= NGAN_MAX_COS) & (wo[:, 2] >= NGAN_MAX_COS)
+    wi, wo, y, measure = wi[inside], wo[inside], y[inside], measure[inside]
+    pairs = tmp_path / "pairs.npy"
+    np.save(pairs, np.concatenate([wi, wo], axis=1))
+    done = brdflab("eval", out, "--fitting", 0, "--pairs", pairs, "--out", tmp_path / "f.npy")
+    assert done.returncode == 0, done.stderr
+    f = np.load(tmp_path / "f.npy")
+    error = np.sqrt((measure[:, None] * (wi[:, 2:3] * (f - y)) ** 2).sum() / (measure.sum() * y.shape[1]))
+    assert error == pytest.approx(reported, rel=1e-3)  # float32 GLSL against the fitter's own pass
+    done = brdflab("render", out, "--fitting", 0, "--mode", "fis", "--size", "32,32", "--samples", "16",
+                   "--out", tmp_path / "r.exr")
+    assert done.returncode == 0, done.stderr

@@ -140,6 +140,8 @@ class BRDFDocument(SourceLinked):
     extra: list = field(default_factory=list)
     path: Path | None = None
     warnings: list[str] = field(default_factory=list)
+    # a model file that is not the one the material was saved with: every command says so
+    model_warnings: list[str] = field(default_factory=list)
     doctype: str | None = None  # the name of a bare <!DOCTYPE NAME> line, kept on save
     source: SourceXML | None = field(default=None, compare=False, repr=False)  # the file as read
 
@@ -166,6 +168,7 @@ class _Reader:
         self.path = path
         self.base_dir = base_dir
         self.warnings: list[str] = []
+        self.model_warnings: list[str] = []
         self.unknown_count = 0
 
     def fail(self, el: etree._Element | None, message: str) -> BRDFLabError:
@@ -243,7 +246,8 @@ class _Reader:
                 extra.append(copy.deepcopy(child))
         if material is None:
             raise self.fail(root, "no <Material>")
-        return BRDFDocument(material, fittings, info, extra, self.path, self.summarised_warnings())
+        return BRDFDocument(material, fittings, info, extra, self.path, self.summarised_warnings(),
+                            list(dict.fromkeys(self.model_warnings)))
 
     def fitting(self, el: etree._Element) -> Fitting:
         known = {"error", "readOnly", "optimizerName"}
@@ -422,8 +426,9 @@ class _Reader:
             if ref is not None:
                 model = resolve_reference(model_name, ref.get("path"), ref.get("sha256"), self.base_dir)
                 if ref.get("sha256") and ref.get("sha256") != model.origin.sha256:
-                    self.warnings.append(f"line {ref.sourceline}: the model file {model.origin.path} is not the one "
-                                         f"the material was saved with (its sha256 differs)")
+                    self.model_warnings.append(f"line {ref.sourceline}: the model file {model.origin.path} is not "
+                                               "the one the material was saved with (its sha256 differs)")
+                    self.warnings.append(self.model_warnings[-1])
                 return model
             try:
                 return get_model(model_name)

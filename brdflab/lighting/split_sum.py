@@ -31,6 +31,9 @@ from brdflab.material.analytic import AnalyticMaterial, Lobe
 ALBEDO_SIZE = 32  # cos θo = 0, 1/31, …, 1
 ANISOTROPIC_PHIS = 4  # view azimuths averaged for anisotropic lobes
 MIN_COS = 0.01  # the albedo at cos θo = 0 is taken at this cosine
+# and at cos θo = 1 at this one (0.08° off the normal): some models are 0/0 exactly there (BRDF
+# Explorer's Oren–Nayar normalises V − N (V·N)), and one texel would darken the whole centre
+MAX_COS = 1.0 - 1e-6
 
 
 @dataclass(frozen=True)
@@ -61,7 +64,7 @@ def lobe_albedo_table(lobe: Lobe, size: int = ALBEDO_SIZE) -> np.ndarray:
     azimuths if it is anisotropic."""
     from brdflab.material.albedo import lobe_albedo_channels
 
-    cos_o = np.maximum(albedo_cosines(size), MIN_COS)
+    cos_o = np.clip(albedo_cosines(size), MIN_COS, MAX_COS)
     sin_o = np.sqrt(1.0 - cos_o**2)
     phis = [0.0] if lobe.model.is_isotropic(lobe.params) else np.arange(ANISOTROPIC_PHIS) * (np.pi / ANISOTROPIC_PHIS)
     wo = np.concatenate([np.stack([sin_o * np.cos(p), sin_o * np.sin(p), cos_o], -1) for p in phis])

@@ -14,7 +14,7 @@ from brdflab.material.analytic import AnalyticMaterial
 from brdflab.models import LobeModel
 from brdflab.io.resources import shader_path
 
-MAX_PARAMS = 16  # the most parameters one lobe has (a program's NP lies between 8 and this)
+MAX_PARAMS = 32  # the most parameters one lobe has (a program's NP lies between 8 and this)
 BUILTIN_PARAMS = 8  # the most a built-in has: a material of built-ins passes 8 per lobe
 MAX_LOBES = 64  # the shader unrolls every lobe and holds its parameters in uniforms
 GLSL_VERSION = "#version 330 core\n"
@@ -81,18 +81,34 @@ def material_source(models: tuple[str, ...], measured: bool = False, n_channels:
         parts.append(shader_source("measured.glsl"))
     else:
         lines += ["    return f;", "}"]
+    slots = tabulated_slots(models)
+    if slots:  # lobes sampled from tables of their own values (models read from files)
+        parts += [f"#define N_TAB {len(slots)}", shader_source("tabulated.glsl")]
     lines += ["vec3 material_sample(int k, vec3 wo, vec2 u) {"]
     for k, name in enumerate(models):
         model = get_model(name)
         sampler = f"sample_{model.glsl_id}(wo, u, lobe_params({k}))" if model.glsl_samplable else "cosine_hemisphere(u)"
+        if k in slots:
+            sampler = f"sample_tab({slots[k]}, wo, u)"
         lines.append(f"    if (k == {k}) return {sampler};")
     lines += ["    return cosine_hemisphere(u);", "}", "float material_pdf(vec3 wi, vec3 wo) {", "    float p = 0.0;"]
     for k, name in enumerate(models):
         model = get_model(name)
         pdf = f"pdf_{model.glsl_id}(wi, wo, lobe_params({k}))" if model.glsl_samplable else "cosine_hemisphere_pdf(wi)"
+        if k in slots:
+            pdf = f"pdf_tab({slots[k]}, wi, wo)"
         lines.append(f"    p += u_lobe_share[{k}] * {pdf};")
     lines += ["    return p;", "}"]
     return "\n".join(parts + lines) + "\n"
+
+
+def tabulated_slots(models: tuple[str, ...]) -> dict[int, int]:
+    """Lobe index → its layer in the tabulated sampler's texture, for every lobe whose model
+    is sampled from tables of its own values (render/tabulated.py)."""
+    from brdflab.models import get_model
+
+    tabulated = [k for k, name in enumerate(models) if getattr(get_model(name), "tabulated", False)]
+    return {k: slot for slot, k in enumerate(tabulated)}
 
 
 def lobe_uniforms(material: AnalyticMaterial, shares: np.ndarray | None = None) -> dict[str, np.ndarray]:

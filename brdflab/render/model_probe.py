@@ -9,10 +9,15 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.models.files.expression import direction_values
+
+SLOW_SECONDS = 2.0  # for PROBE_PAIRS pairs; each corpus model takes milliseconds
+AGREE = 1e-3  # a formula and its GLSL twin agree this closely (float32 GLSL); the corpora: 2e-5
 
 
 def problem(model) -> str | None:
@@ -21,7 +26,13 @@ def problem(model) -> str | None:
 
     wi, wo = probe_pairs(PROBE_PAIRS)
     p = model.defaults()
+    model._gl_values(wi[:8], wo[:8], p)  # compiles the program
+    t0 = time.perf_counter()
     values = model._gl_values(wi, wo, p)
+    seconds = time.perf_counter() - t0
+    if seconds > SLOW_SECONDS:
+        return (f"evaluating its GLSL at {PROBE_PAIRS:,} direction pairs took {seconds:.1f} s (a lobe takes "
+                "milliseconds): too slow to render or fit")
     bad = ~np.isfinite(values).all(axis=-1)
     if bad.mean() > 0.01:
         k = int(np.argmax(bad))
@@ -32,6 +43,16 @@ def problem(model) -> str | None:
         k = int(np.argmax(neg))
         return (f"its GLSL gives negative values at its defaults (e.g. {float(values[k].min()):.3g} at wi = "
                 f"{np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()}): a BRDF is never negative")
+    if model.formula is not None:
+        cpu = np.broadcast_to(model.formula.evaluate({**direction_values(wi, wo), **p}), wi.shape[:1])
+        gpu = values[:, 0]
+        big = np.isfinite(cpu) & (np.abs(gpu) > 1e-6)
+        rel = np.abs(cpu[big] - gpu[big]) / np.abs(gpu[big])
+        if rel.size and rel.max() > AGREE:
+            k = np.flatnonzero(big)[int(np.argmax(rel))]
+            return (f"its <Equation> and <Equation_GLSL> disagree by up to {rel.max():.2%} (e.g. {cpu[k]:.4g} "
+                    f"against {gpu[k]:.4g} at wi = {np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()}): "
+                    "fits would use one and renders the other")
     return None
 
 

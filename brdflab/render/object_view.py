@@ -21,6 +21,7 @@ from brdflab.io.mesh import Mesh
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.prefiltered import PrefilteredLighting
 from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
+from brdflab.render.tabulated import TabulatedTextures
 from brdflab.lighting.env_sampling import environment_distribution
 from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set, sample_set
@@ -86,6 +87,7 @@ class ObjectRenderer:
         self._sh_light: tuple | None = None  # (map, order, window, coefficients): per map, not per material
         self.clamped_pixels = 0
         self.prefiltered = PrefilteredLighting(ctx)  # the prefiltered mode's textures
+        self.tabulated = TabulatedTextures(ctx)  # the tables file models are sampled from
         self._empty_vao = ctx.vertex_array(self._program(("Lambertian",), "point", True), [])
 
     def adopt(self, old: "ObjectRenderer") -> None:
@@ -456,6 +458,7 @@ class ObjectRenderer:
             _set(prog, "u_sample_begin", sample_range[0])
             _set(prog, "u_sample_end", sample_range[1])
             _set(prog, "u_set_size", float(set_size))
+            self.tabulated.bind(prog, self.material)
         if settings.mode == "mis":
             marginal, table = self._env_sampling_tables()
             marginal.use(6)

@@ -73,6 +73,8 @@ def load_source(path: Path, fitting: int | None = None, warn: Warn | None = None
             raise BRDFLabError("only XML materials store fittings", path)
         return read_measured(path)
     doc = load(path)
+    for message in doc.model_warnings if warn is not None else ():
+        warn(f"{path}: {message}")
     if fitting is not None:
         if not 0 <= fitting < len(doc.fittings):
             raise BRDFLabError(f"--fitting {fitting}: the file stores {len(doc.fittings)} fitting(s)", path)

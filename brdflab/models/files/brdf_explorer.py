@@ -38,7 +38,7 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
     if len(data) > MAX_MODEL_BYTES:
         raise BRDFLabError(f"{len(data):,} bytes is too large for a model file (at most {MAX_MODEL_BYTES:,})", path)
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8-sig")  # a byte-order mark (as Windows editors save) is not text
     except UnicodeDecodeError as e:
         raise BRDFLabError(f"not UTF-8 text (byte {e.start})", path) from None
     if "\x00" in text:

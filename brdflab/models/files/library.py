@@ -131,7 +131,11 @@ def resolve_lobe(text: str) -> str:
     (loaded, checked and registered)."""
     from brdflab.models.files import is_model_file
 
-    if is_model_file(text) and (Path(text).exists() or os.sep in text or "/" in text):
+    from brdflab.models.registry import model_names
+
+    if is_model_file(text) and text not in model_names():
+        if not Path(text).exists():
+            raise BRDFLabError("no such model file", text)
         return load_model_file(Path(text)).name
     return text
 

@@ -10,7 +10,7 @@ from brdflab.errors import BRDFLabError
 from brdflab.models.base import Parameter
 
 MAX_MODEL_BYTES = 1 << 20  # BRDF Explorer's largest file (disney.brdf) is 4 KB
-MAX_PARAMETERS = 16  # scalars: the renderers pass a lobe's parameters as float p[NP], NP = 16
+MAX_PARAMETERS = 32  # scalars: the renderers pass a lobe's parameters as float p[NP], NP ≤ 32 (render.glsl)
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")  # ASCII digits only
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _GLSL_RESERVED = frozenset("""

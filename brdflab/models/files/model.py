@@ -119,7 +119,8 @@ class FileModel(LobeModel):
         wi = np.asarray(wi, float)
         wo = np.asarray(wo, float)
         out = self._gl_values(wi, wo, self._with_defaults(params))
-        out[~((wi[..., 2] > 0) & (wo[..., 2] > 0))] = 0.0
+        above = np.broadcast_to((wi[..., 2] > 0) & (wo[..., 2] > 0), out.shape[:-1])
+        out[~above] = 0.0
         out[~np.isfinite(out)] = 0.0
         return out
 
@@ -175,9 +176,17 @@ class FileModel(LobeModel):
             lines.append(f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) {{ return {i}_value(wi, wo, p); }}")
         return "\n".join(lines) + "\n"
 
+    # sampled by the generic tabulated sampler, in NumPy (_sample, _pdf) and in the renderers
+    # (shaders/tabulated.glsl, textures from render/tabulated.py)
+    tabulated = True
+
+    def tabulated_sampler(self, params):
+        """The tables this lobe is sampled from at these parameters (cached per parameters)."""
+        return self._sampler(self._with_defaults(params))
+
     @property
     def glsl_samplable(self) -> bool:
-        return False  # the renderers sample its cosine; the CPU side has the tabulated sampler
+        return False  # no sample_<id>/pdf_<id>: the renderers use the tables (tabulated = True)
 
 
 def model_glsl_id(model_name: str, sha256: str) -> str:

@@ -1,14 +1,18 @@
-"""A sampler for any lobe, built from its own values: tabulated distributions of wi per
-view direction, and an equivalent roughness measured on the lobe's shape.
+"""A sampler for any lobe, built from its own values: tabulated distributions of the half
+vector per view direction, and an equivalent roughness measured on the lobe's shape.
 
 For each tabulated view wo (elevations θv; and azimuths φv for anisotropic lobes) the
-hemisphere of wi is cut into N_THETA × N_PHI cells, uniform in θ and φ; a cell's mass is
-f(wi, wo) cos θi at its centre times its solid angle. A draw picks a table (between the two
-neighbouring views, with probability by the interpolation weight, so the density is the
-same mix of both tables), a cell by its mass, and a point uniformly in the cell's solid
-angle; a fixed share COSINE_SHARE is cosine-weighted, so every direction where the lobe can
-be non-zero has a density. `pdf` is that mixture's density exactly, so the sampler is
-unbiased whatever the lobe, and close to f cos θi where the cells resolve it.
+hemisphere of half vectors h is cut into N_THETA × N_PHI cells, finer near the normal (θ
+edges at (π/2)(i/N_THETA)², so a sharp lobe spans many cells) and uniform in φ. A cell's
+mass is what the lobe sends through it: f(wi, wo) cos θi · 4 (wo·h) · Δω_h at its centre,
+with wi = wo reflected about h (the Jacobian dωi = 4 (wo·h) dωh). Tabulating h rather than
+wi keeps a microfacet lobe's peak at the normal for every view, so interpolating between
+neighbouring views does not blur it. A draw picks a table (between the two neighbouring
+views, with probability by the interpolation weight, so the density is the same mix of both
+tables), a cell by its mass, h uniformly in the cell's solid angle, and reflects wo about
+it; a fixed share COSINE_SHARE is cosine-weighted, so every direction where the lobe can be
+non-zero has a density. `pdf` is that mixture's density exactly, so the sampler is unbiased
+whatever the lobe, and close to f cos θi where the cells resolve it.
 """
 
 from __future__ import annotations
@@ -25,8 +29,13 @@ COSINE_SHARE = 0.05
 DIFFUSE_ALPHA = 0.5  # the equivalent α of a Lambertian: a lobe at least that flat is lit as diffuse
 
 
+def theta_edges() -> np.ndarray:
+    return 0.5 * math.pi * (np.arange(N_THETA + 1) / N_THETA) ** 2
+
+
 def _cells():
-    t_edges = np.linspace(0.0, 0.5 * math.pi, N_THETA + 1)
+    """Cell edges in θ, the cells' centre directions (N_THETA, N_PHI, 3) and solid angles."""
+    t_edges = theta_edges()
     p_edges = np.linspace(0.0, 2.0 * math.pi, N_PHI + 1)
     t = 0.5 * (t_edges[:-1] + t_edges[1:])
     p = 0.5 * (p_edges[:-1] + p_edges[1:])
@@ -35,6 +44,15 @@ def _cells():
     dirs = np.stack([st[:, None] * np.cos(p)[None, :], st[:, None] * np.sin(p)[None, :],
                      np.broadcast_to(np.cos(t)[:, None], (N_THETA, N_PHI))], axis=-1)
     return t_edges, dirs, solid
+
+
+def _reflect(wo: np.ndarray, h: np.ndarray) -> np.ndarray:
+    return 2.0 * (wo * h).sum(-1, keepdims=True) * h - wo
+
+
+def _theta_cell(cos_t: np.ndarray) -> np.ndarray:
+    theta = np.arccos(np.clip(cos_t, -1.0, 1.0))
+    return np.minimum((np.sqrt(theta / (0.5 * math.pi)) * N_THETA).astype(int), N_THETA - 1)
 
 
 def _rotate_z(w: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -49,23 +67,25 @@ class TabulatedSampler:
     view_theta: np.ndarray  # (V,)
     view_phi: np.ndarray  # (P,) ([0] for an isotropic lobe)
     cdf: np.ndarray  # (V * P, cells), rising to 1 (a table with no mass is uniform)
-    density: np.ndarray  # (V * P, cells): mass / solid angle of each cell
+    density: np.ndarray  # (V * P, cells): mass / solid angle of each cell: the density of h
     isotropic: bool
 
     @classmethod
     def build(cls, model, params: dict) -> "TabulatedSampler":
-        t_edges, dirs, solid = _cells()
+        _, dirs, solid = _cells()
         vt = np.linspace(0.0, math.radians(89.0), N_VIEWS)
         iso = bool(model.is_isotropic(params))
         vp = np.array([0.0]) if iso else np.arange(N_VIEW_PHI) * (2.0 * math.pi / N_VIEW_PHI)
         views = np.stack(np.meshgrid(vt, vp, indexing="ij"), -1).reshape(-1, 2)
         wo = np.stack([np.sin(views[:, 0]) * np.cos(views[:, 1]), np.sin(views[:, 0]) * np.sin(views[:, 1]),
                        np.cos(views[:, 0])], -1)
-        wi = dirs.reshape(-1, 3)
-        f = model.evaluate(np.broadcast_to(wi[None], (len(wo),) + wi.shape).reshape(-1, 3),
-                           np.broadcast_to(wo[:, None], (len(wo), len(wi), 3)).reshape(-1, 3), params)
-        f = np.where(np.isfinite(f) & (f > 0), f, 0.0).reshape(len(wo), -1)
-        mass = f * wi[None, :, 2] * solid.reshape(1, -1)
+        h = np.broadcast_to(dirs.reshape(1, -1, 3), (len(wo), N_THETA * N_PHI, 3))
+        wo_b = np.broadcast_to(wo[:, None], h.shape)
+        wi = _reflect(wo_b, h)
+        f = model.evaluate(wi.reshape(-1, 3), wo_b.reshape(-1, 3), params).reshape(len(wo), -1)
+        f = np.where(np.isfinite(f) & (f > 0), f, 0.0)
+        jacobian = 4.0 * np.abs((wo_b * h).sum(-1))
+        mass = f * np.maximum(wi[..., 2], 0.0) * jacobian * solid.reshape(1, -1)
         total = mass.sum(axis=1, keepdims=True)
         mass = np.where(total > 0, mass / np.where(total > 0, total, 1.0), solid.reshape(1, -1) / solid.sum())
         cdf = np.cumsum(mass, axis=1)
@@ -105,6 +125,7 @@ class TabulatedSampler:
         rotation = np.zeros(n)
         below = np.zeros(n)
         pick = u[:, 0].copy()
+        first = pick.copy()  # a cosine-weighted draw takes u.x as it came (as the GLSL twin does)
         for k, weight, phi in self._views(wo):
             weight = np.broadcast_to(weight, (n,))
             take = (pick >= below) & (pick < below + weight)
@@ -120,14 +141,15 @@ class TabulatedSampler:
         hi = self.cdf[table, cell]
         r = np.clip((u[:, 0] - lo) / np.where(hi > lo, hi - lo, 1.0), 0.0, 1.0)
         it, ip = np.divmod(cell, N_PHI)
-        t_edges = np.linspace(0.0, 0.5 * math.pi, N_THETA + 1)
+        t_edges = theta_edges()
         c0, c1 = np.cos(t_edges[it]), np.cos(t_edges[it + 1])
         cos_t = c0 + r * (c1 - c0)
         phi = (ip + u[:, 1]) * (2.0 * math.pi / N_PHI)
         sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
-        local = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], -1)
-        wi = _rotate_z(local, rotation if self.isotropic else np.zeros(n))
-        wi = np.where(cosine[:, None], cosine_hemisphere(u), wi)
+        h = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], -1)
+        h = _rotate_z(h, rotation if self.isotropic else np.zeros(n))
+        wi = _reflect(wo, h)
+        wi = np.where(cosine[:, None], cosine_hemisphere(np.stack([first, u[:, 1]], -1)), wi)
         return wi.reshape(shape + (3,))
 
     def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
@@ -135,16 +157,19 @@ class TabulatedSampler:
         wi = np.broadcast_to(wi, shape + (3,)).reshape(-1, 3)
         wo = np.broadcast_to(wo, shape + (3,)).reshape(-1, 3)
         n = len(wi)
-        out = np.zeros(n)
+        h = wi + wo
+        h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+        density_h = np.zeros(n)
         for k, weight, phi in self._views(wo):
-            local = _rotate_z(wi, -np.broadcast_to(phi, (n,))) if self.isotropic else wi
-            theta = np.arccos(np.clip(local[:, 2], -1.0, 1.0))
-            it = np.minimum((theta / (0.5 * math.pi) * N_THETA).astype(int), N_THETA - 1)
+            local = _rotate_z(h, -np.broadcast_to(phi, (n,))) if self.isotropic else h
+            it = _theta_cell(local[:, 2])
             ip = np.minimum((np.mod(np.arctan2(local[:, 1], local[:, 0]), 2.0 * math.pi)
                              / (2.0 * math.pi) * N_PHI).astype(int), N_PHI - 1)
-            out += np.broadcast_to(weight, (n,)) * self.density[np.broadcast_to(k, (n,)), it * N_PHI + ip]
-        out = (1.0 - COSINE_SHARE) * out + COSINE_SHARE * np.maximum(wi[:, 2], 0.0) / math.pi
-        return np.where(wi[:, 2] > 0, out, 0.0).reshape(shape)
+            density_h += np.broadcast_to(weight, (n,)) * self.density[np.broadcast_to(k, (n,)), it * N_PHI + ip]
+        woh = np.abs((wo * h).sum(-1))
+        tabulated = np.where(woh > 1e-12, density_h / (4.0 * np.where(woh > 1e-12, woh, 1.0)), 0.0)
+        out = (1.0 - COSINE_SHARE) * tabulated + COSINE_SHARE * np.maximum(wi[:, 2], 0.0) / math.pi
+        return np.where((wi[:, 2] > 0) & (wo[:, 2] > 0), out, 0.0).reshape(shape)
 
 
 def equivalent_roughness(model, params: dict) -> float | None:
