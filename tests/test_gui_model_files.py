@@ -43,19 +43,21 @@ def test_a_model_from_a_file_is_listed_added_and_drawn_in_both_views(window, qtb
     window.grab().save(str(tmp_path / "file_model.png"))
 
 
-def test_disney_from_its_file_fits_a_measured_slice_in_the_window_and_the_fit_reopens(window, qtbot, tmp_path):
+@pytest.mark.parametrize("slice_name", ["red-specular-plastic", "nickel"])
+def test_disney_from_its_file_fits_a_measured_slice_in_the_window_and_the_fit_reopens(slice_name, window, qtbot,
+                                                                                     tmp_path):
     from brdflab.io.xmlio import load
 
     folder = tmp_path / "work"
     folder.mkdir()
     shutil.copy(DISNEY, folder / "disney.brdf")
     open_and_wait(qtbot, window, window.add_model_file, folder / "disney.brdf")
-    open_and_wait(qtbot, window, window.open_path, SHARED / "merl_slices" / "nickel.slice")
+    open_and_wait(qtbot, window, window.open_path, SHARED / "merl_slices" / f"{slice_name}.slice")
     window.start_fit(["disney"], "Linear", "Ngan", "subset", 5000)
     qtbot.waitUntil(lambda: window._thread is None and bool(window.workspace.document.fittings), timeout=120000)
     fit = window.workspace.document.fittings[-1]
     assert [l.model.name for l in fit.material.lobes] == ["disney"] and np.isfinite(fit.error)
-    path = folder / "nickel-disney.xml"
+    path = folder / f"{slice_name}-disney.xml"
     assert window._save_to(path)
     from lxml import etree
 

@@ -55,9 +55,10 @@ def test_a_model_file_stands_where_a_material_does(tmp_path):
     assert done.returncode == 0, done.stderr
     values = np.load(tmp_path / "v.npy")
     assert values.shape == (50, 3) and (values > 0).all() and np.allclose(values[:, 0], values[:, 2])
-    done = brdflab("render", EXPLORER / "disney.brdf", "--view", "reference", "--size", "32,32", "--out",
-                   tmp_path / "d.exr", "--json")
-    assert done.returncode == 0, done.stderr
+    for mode in ("point", "auto"):
+        done = brdflab("render", EXPLORER / "disney.brdf", "--mode", mode, "--view", "reference", "--size", "32,32",
+                       "--out", tmp_path / f"d-{mode}.exr", "--json")
+        assert done.returncode == 0, done.stderr
 
 
 def test_a_fit_with_a_file_lobe_saves_its_file_and_reopens_elsewhere(tmp_path):
