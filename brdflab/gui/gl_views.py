@@ -369,6 +369,7 @@ class ObjectView(_GLView):
 
     def setup(self) -> None:
         self.renderer = ObjectRenderer(self.ctx)
+        self.renderer.tabulated.background = True  # a file lobe's tables never block the window
         self.display = Display(self.ctx)
 
     def shutdown(self) -> None:
@@ -426,6 +427,7 @@ class ObjectView(_GLView):
         scene = (id(r.mesh), id(r.environment), r.sh_order, r.sh_window, r.sh_shadows, r.sh_variant)
         if self._renderer_b is None:
             self._renderer_b = ObjectRenderer(self.ctx)
+            self._renderer_b.tabulated.background = True
         if scene != self._scene_b:
             self._renderer_b.adopt(r)
             self._scene_b = scene
@@ -562,6 +564,11 @@ class ObjectView(_GLView):
             self._progressive_b = self._second_renderer().start_progressive(settings) if self.comparing else None
         p, target = self._progressive, self._target_samples()
         if p.samples >= target:
+            tables = self.renderer.tabulated
+            if tables.provisional:  # drawn from a file lobe's stand-in tables: again once its own are built
+                if tables.building_done():
+                    self.restart()
+                return
             self._timer.stop()
             return
         if GL_QUEUE.others_waiting(self._owner) or not GL_QUEUE.take(self._owner):

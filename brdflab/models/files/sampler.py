@@ -18,14 +18,15 @@ whatever the lobe, and close to f cos θi where the cells resolve it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import numpy as np
 
 N_THETA, N_PHI = 64, 128
 N_VIEWS = 24  # tabulated view elevations (isotropic lobes)
 N_VIEW_PHI = 12  # and azimuths (anisotropic lobes)
 COSINE_SHARE = 0.05
+# views tabulated per evaluation: one pass holds the OpenGL evaluator ~30 ms, so the window's own
+# requests (queued behind a table build in a thread) wait no longer than that
+VIEWS_PER_PASS = 16
 DIFFUSE_ALPHA = 0.5  # the equivalent α of a Lambertian: a lobe at least that flat is lit as diffuse
 
 
@@ -60,29 +61,47 @@ def _rotate_z(w: np.ndarray, angle: np.ndarray) -> np.ndarray:
     return np.stack([c * w[..., 0] - s * w[..., 1], s * w[..., 0] + c * w[..., 1], w[..., 2]], axis=-1)
 
 
-@dataclass
 class TabulatedSampler:
-    """Tabulated importance sampling of one lobe at fixed parameters."""
+    """Tabulated importance sampling of one lobe at fixed parameters. A view's table is built
+    the first time a draw or a density needs it (an edit in the window asks for the normal
+    view's alone; the renderers' FIS and MIS for all of them)."""
 
-    view_theta: np.ndarray  # (V,)
-    view_phi: np.ndarray  # (P,) ([0] for an isotropic lobe)
-    cdf: np.ndarray  # (V * P, cells), rising to 1 (a table with no mass is uniform)
-    density: np.ndarray  # (V * P, cells): mass / solid angle of each cell: the density of h
-    isotropic: bool
+    def __init__(self, model, params: dict) -> None:
+        self.model, self.params = model, dict(params)
+        self.view_theta = np.linspace(0.0, math.radians(89.0), N_VIEWS)
+        self.isotropic = bool(model.is_isotropic(params))
+        self.view_phi = np.array([0.0]) if self.isotropic else np.arange(N_VIEW_PHI) * (2.0 * math.pi / N_VIEW_PHI)
+        tables = len(self.view_theta) * len(self.view_phi)
+        self._cdf = np.zeros((tables, N_THETA * N_PHI))  # rising to 1 (a table with no mass is uniform)
+        self._density = np.zeros((tables, N_THETA * N_PHI))  # mass / solid angle: the density of h
+        self._built = np.zeros(tables, bool)
 
-    @classmethod
-    def build(cls, model, params: dict) -> "TabulatedSampler":
+    @property
+    def cdf(self) -> np.ndarray:
+        self.ensure(np.arange(len(self._built)))
+        return self._cdf
+
+    @property
+    def density(self) -> np.ndarray:
+        self.ensure(np.arange(len(self._built)))
+        return self._density
+
+    def ensure(self, tables) -> None:
+        """Build the tables among `tables` (indices) that are not built yet."""
+        todo = np.unique(np.asarray(tables, int).ravel())
+        todo = todo[~self._built[todo]]
+        for start in range(0, todo.size, VIEWS_PER_PASS):
+            self._build(todo[start:start + VIEWS_PER_PASS])
+
+    def _build(self, todo: np.ndarray) -> None:
         _, dirs, solid = _cells()
-        vt = np.linspace(0.0, math.radians(89.0), N_VIEWS)
-        iso = bool(model.is_isotropic(params))
-        vp = np.array([0.0]) if iso else np.arange(N_VIEW_PHI) * (2.0 * math.pi / N_VIEW_PHI)
-        views = np.stack(np.meshgrid(vt, vp, indexing="ij"), -1).reshape(-1, 2)
+        views = np.stack(np.meshgrid(self.view_theta, self.view_phi, indexing="ij"), -1).reshape(-1, 2)[todo]
         wo = np.stack([np.sin(views[:, 0]) * np.cos(views[:, 1]), np.sin(views[:, 0]) * np.sin(views[:, 1]),
                        np.cos(views[:, 0])], -1)
         h = np.broadcast_to(dirs.reshape(1, -1, 3), (len(wo), N_THETA * N_PHI, 3))
         wo_b = np.broadcast_to(wo[:, None], h.shape)
         wi = _reflect(wo_b, h)
-        f = model.evaluate(wi.reshape(-1, 3), wo_b.reshape(-1, 3), params).reshape(len(wo), -1)
+        f = self.model.evaluate(wi.reshape(-1, 3), wo_b.reshape(-1, 3), self.params).reshape(len(wo), -1)
         f = np.where(np.isfinite(f) & (f > 0), f, 0.0)
         jacobian = 4.0 * np.abs((wo_b * h).sum(-1))
         mass = f * np.maximum(wi[..., 2], 0.0) * jacobian * solid.reshape(1, -1)
@@ -90,7 +109,9 @@ class TabulatedSampler:
         mass = np.where(total > 0, mass / np.where(total > 0, total, 1.0), solid.reshape(1, -1) / solid.sum())
         cdf = np.cumsum(mass, axis=1)
         cdf[:, -1] = 1.0
-        return cls(vt, vp, cdf, mass / solid.reshape(1, -1), iso)
+        self._cdf[todo] = cdf
+        self._density[todo] = mass / solid.reshape(1, -1)
+        self._built[todo] = True
 
     # --- the views around wo, with their weights
     def _views(self, wo: np.ndarray):
@@ -126,7 +147,9 @@ class TabulatedSampler:
         below = np.zeros(n)
         pick = u[:, 0].copy()
         first = pick.copy()  # a cosine-weighted draw takes u.x as it came (as the GLSL twin does)
-        for k, weight, phi in self._views(wo):
+        views = self._views(wo)
+        self.ensure([k for k, _, _ in views])
+        for k, weight, phi in views:
             weight = np.broadcast_to(weight, (n,))
             take = (pick >= below) & (pick < below + weight)
             table = np.where(take, np.broadcast_to(k, (n,)), table)
@@ -134,11 +157,12 @@ class TabulatedSampler:
             u[:, 0] = np.where(take, (pick - below) / np.where(weight > 0, weight, 1.0), u[:, 0])
             below = below + weight
         u = np.clip(u, 0.0, np.nextafter(1.0, 0.0))
-        cells = self.cdf.shape[1]
-        flat = (self.cdf + np.arange(len(self.cdf))[:, None]).ravel()
+        cdf = self._cdf  # the rows drawn from are built; searchsorted looks within a row
+        cells = cdf.shape[1]
+        flat = (cdf + np.arange(len(cdf))[:, None]).ravel()
         cell = np.minimum(np.searchsorted(flat, u[:, 0] + table, side="right") - table * cells, cells - 1)
-        lo = np.where(cell > 0, self.cdf[table, np.maximum(cell - 1, 0)], 0.0)
-        hi = self.cdf[table, cell]
+        lo = np.where(cell > 0, cdf[table, np.maximum(cell - 1, 0)], 0.0)
+        hi = cdf[table, cell]
         r = np.clip((u[:, 0] - lo) / np.where(hi > lo, hi - lo, 1.0), 0.0, 1.0)
         it, ip = np.divmod(cell, N_PHI)
         t_edges = theta_edges()
@@ -160,12 +184,14 @@ class TabulatedSampler:
         h = wi + wo
         h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
         density_h = np.zeros(n)
-        for k, weight, phi in self._views(wo):
+        views = self._views(wo)
+        self.ensure([k for k, _, _ in views])
+        for k, weight, phi in views:
             local = _rotate_z(h, -np.broadcast_to(phi, (n,))) if self.isotropic else h
             it = _theta_cell(local[:, 2])
             ip = np.minimum((np.mod(np.arctan2(local[:, 1], local[:, 0]), 2.0 * math.pi)
                              / (2.0 * math.pi) * N_PHI).astype(int), N_PHI - 1)
-            density_h += np.broadcast_to(weight, (n,)) * self.density[np.broadcast_to(k, (n,)), it * N_PHI + ip]
+            density_h += np.broadcast_to(weight, (n,)) * self._density[np.broadcast_to(k, (n,)), it * N_PHI + ip]
         woh = np.abs((wo * h).sum(-1))
         tabulated = np.where(woh > 1e-12, density_h / (4.0 * np.where(woh > 1e-12, woh, 1.0)), 0.0)
         out = (1.0 - COSINE_SHARE) * tabulated + COSINE_SHARE * np.maximum(wi[:, 2], 0.0) / math.pi
