@@ -76,6 +76,7 @@ class FileModel(LobeModel):
         self.starts = ({},)
         self._id = model_glsl_id(model_name, origin.sha256)
         self._samplers: dict = {}
+        self._isotropic_at: dict = {}  # parameters → whether the lobe is isotropic there
 
     def __reduce__(self):
         """Sent to another process (a fit's worker) as its file: read there again."""
@@ -105,6 +106,14 @@ class FileModel(LobeModel):
         found isotropic is tabulated for 24 views instead of 288."""
         if self.isotropic:
             return True
+        key = tuple(float(np.asarray(params[q.name]).ravel()[0]) for q in self.parameters if q.name in params)
+        if key not in self._isotropic_at:
+            if len(self._isotropic_at) > 64:
+                self._isotropic_at.clear()
+            self._isotropic_at[key] = self._turns_alike(params)
+        return self._isotropic_at[key]
+
+    def _turns_alike(self, params: Mapping[str, float]) -> bool:
         from brdflab.models.files.library import probe_pairs
 
         wi, wo = probe_pairs(64, seed=13)
