@@ -21,6 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.resources import MODELS_ENV
 
 
 def _emit(args: argparse.Namespace, payload: dict, human: str) -> None:
@@ -129,17 +130,19 @@ def _lobe_names(text: str) -> list[str]:
 def _load_model_folders(args: argparse.Namespace) -> None:
     """Register the user's model files: every folder in BRDFLAB_MODELS, then --models DIR.
     The `--models` of fit and batch also names the --auto ladder's models: its folders are
-    taken out here, and the names left for --auto."""
-    from brdflab.models.files.library import env_folders, load_folders
-
-    folders = env_folders() + [Path(d) for d in (getattr(args, "global_model_dirs", None) or [])]
+    taken out here, and the names left for --auto. Nothing is imported when no folder is named
+    (commands start light)."""
+    folders = [Path(d) for d in (getattr(args, "global_model_dirs", None) or [])]
     folders += [Path(d) for d in (getattr(args, "model_dirs", None) or [])]
     names = getattr(args, "models", None)
     if isinstance(names, str):
         entries = [e.strip() for e in names.split(",") if e.strip()]
         folders += [Path(e) for e in entries if Path(e).is_dir()]
         args.models = ",".join(e for e in entries if not Path(e).is_dir()) or None
-    if folders:
+    if folders or os.environ.get(MODELS_ENV, "").strip():
+        from brdflab.models.files.library import env_folders, load_folders
+
+        folders = env_folders() + folders
         warn = _warner(args)
         for model in load_folders(folders, warn=warn):
             for message in model.warnings if args.command == "models" else ():  # not on every command

@@ -69,16 +69,23 @@ def test_dragging_a_slider_updates_rows_in_place(window, qtbot):
     assert window.undo_stack.count() == 1  # one drag is one undo step
 
 
+def probe_edits(w, qtbot, k: int, name: str, values) -> GapProbe:
+    """Set lobe k's parameter to each value in turn, 30 ms apart, as a dragged slider does,
+    and wait for the energy check, plots and text to catch up; the GUI thread's gaps."""
+    qtbot.wait(500)
+    with GapProbe() as probe:
+        for v in values:
+            w.editor.parameter_edited.emit(k, name, v)
+            qtbot.wait(30)
+        qtbot.waitUntil(lambda: not w.editor._energy_job.busy, timeout=60000)
+        qtbot.wait(600)  # plots and text catch up
+    return probe
+
+
 def test_gui_thread_stays_responsive_while_editing(window, qtbot):
     window.editor.lobe_added.emit("Ward")  # anisotropic lobes once made each edit cost seconds
     k = len(window.workspace.analytic.lobes) - 1
-    qtbot.wait(500)
-    with GapProbe() as probe:
-        for i in range(30):
-            window.editor.parameter_edited.emit(k, "ax", 0.05 + 0.01 * i)
-            qtbot.wait(30)
-        qtbot.waitUntil(lambda: not window.editor._energy_job.busy, timeout=60000)
-        qtbot.wait(600)  # plots and text catch up
+    probe = probe_edits(window, qtbot, k, "ax", [0.05 + 0.01 * i for i in range(30)])
     assert window.workspace.analytic.lobes[k].params["ax"] == pytest.approx(0.34)
     assert "Energy" in window.editor.energy.text()
     # Before the energy check and the plots moved to worker processes, this scenario blocked

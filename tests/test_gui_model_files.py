@@ -102,17 +102,11 @@ def test_a_missing_model_file_is_asked_for_and_the_material_opens_with_it(window
 def test_the_window_stays_responsive_while_a_file_model_is_edited(anisotropic, window, qtbot):
     """Dragging Disney's roughness (GLSL evaluated through OpenGL, tables rebuilt per edit):
     the GUI thread's gaps stay within the budget the built-ins are held to."""
-    from test_gui_live import GapProbe
+    from test_gui_live import probe_edits
 
     open_and_wait(qtbot, window, window.add_model_file, DISNEY)
     k = len(window.workspace.analytic.lobes) - 1
     window.editor.parameter_edited.emit(k, "anisotropic", anisotropic)
-    qtbot.wait(500)
-    with GapProbe() as probe:
-        for i in range(20):
-            window.editor.parameter_edited.emit(k, "roughness", 0.2 + 0.02 * i)
-            qtbot.wait(30)
-        qtbot.waitUntil(lambda: not window.editor._energy_job.busy, timeout=60000)
-        qtbot.wait(600)
+    probe = probe_edits(window, qtbot, k, "roughness", [0.2 + 0.02 * i for i in range(20)])
     assert window.workspace.analytic.lobes[k].params["roughness"] == pytest.approx(0.58)
     probe.assert_within_budget("while editing a file model")

@@ -42,6 +42,12 @@ def cartesian_to_spherical(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return theta, phi
 
 
+def rotate_about_z(w: np.ndarray, angle) -> np.ndarray:
+    """w turned by `angle` (radians, broadcast over the leading shape) about the normal z."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * w[..., 0] - s * w[..., 1], s * w[..., 0] + c * w[..., 1], w[..., 2]], axis=-1)
+
+
 def reflect_about_normal(w: np.ndarray) -> np.ndarray:
     """Mirror direction of w about the surface normal z."""
     return w * np.array([-1.0, -1.0, 1.0])

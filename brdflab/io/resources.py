@@ -13,6 +13,8 @@ from pathlib import Path
 
 from brdflab.errors import BRDFLabError
 
+MODELS_ENV = "BRDFLAB_MODELS"  # the user's model folders, a path list (models/files/library.py)
+
 _FOLDERS = {"shaders": "brdflab._shaders", "materials": "brdflab._materials", "resources": "brdflab._resources"}
 
 

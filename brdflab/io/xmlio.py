@@ -475,43 +475,51 @@ def _parse_scalar(text: str):
 def parse_bytes(data: bytes, path: Path | str | None = None, base_dir: Path | None = None) -> BRDFDocument:
     """Parse a document from bytes; BRDFLabError (naming `path`) on any problem."""
     reader = _Reader(None if path is None else Path(path), base_dir)
-    parser = etree.XMLParser(**_PARSER_OPTIONS)
-    try:
-        root = etree.fromstring(data, parser)
-    except etree.XMLSyntaxError as e:
-        raise BRDFLabError(f"malformed XML: {e}", path) from None
-    if root is None:
-        raise BRDFLabError("empty XML document", path)
-    doctype = _checked_doctype(data, path)
-    elements = int(root.xpath("count(//*)"))
-    if elements > MAX_ELEMENTS:
-        raise BRDFLabError(f"{elements:,} elements is more than the {MAX_ELEMENTS:,} a material file may hold", path)
-    if any(isinstance(node, etree._Entity) for node in root.iter()):
-        raise BRDFLabError("entity references are not accepted in material files", path)
+    root, doctype = checked_root(data, path)
     doc = reader.document(root)
     doc.doctype = doctype
     doc.source = SourceXML(data, root)
     return doc
 
 
+def checked_root(data: bytes, path, kind: str = "material") -> tuple[etree._Element, str | None]:
+    """The root of an XML file of the lab's (a material, a model descriptor) parsed with
+    entities, DTDs and the network off, and the name of its bare DOCTYPE line; BRDFLabError
+    (naming `path`) for malformed XML, an empty document, a DOCTYPE that is more than a
+    name, any entity, or more than MAX_ELEMENTS elements."""
+    try:
+        root = etree.fromstring(data, etree.XMLParser(**_PARSER_OPTIONS))
+    except etree.XMLSyntaxError as e:
+        raise BRDFLabError(f"malformed XML: {e}", path) from None
+    if root is None:
+        raise BRDFLabError("empty XML document", path)
+    doctype = _checked_doctype(data, path, kind)
+    elements = int(root.xpath("count(//*)"))
+    if elements > MAX_ELEMENTS:
+        raise BRDFLabError(f"{elements:,} elements is more than the {MAX_ELEMENTS:,} a {kind} file may hold", path)
+    if any(isinstance(node, etree._Entity) for node in root.iter()):
+        raise BRDFLabError(f"entity references are not accepted in {kind} files", path)
+    return root, doctype
+
+
 _BARE_DOCTYPE = re.compile(rb"<!DOCTYPE\s+([A-Za-z_][\w.-]*)\s*>")
 
 
-def _checked_doctype(data: bytes, path) -> str | None:
+def _checked_doctype(data: bytes, path, kind: str = "material") -> str | None:
     """The name of a bare `<!DOCTYPE NAME>` line (as BRDFLab's Qt writer puts there), or None.
 
     A DOCTYPE with an internal subset or an external identifier can declare or load entities,
     so it is refused, as is any entity declaration anywhere in the file.
     """
     if b"<!ENTITY" in data:
-        raise BRDFLabError("entity declarations are not accepted in material files", path)
+        raise BRDFLabError(f"entity declarations are not accepted in {kind} files", path)
     start = data.find(b"<!DOCTYPE")
     if start < 0:
         return None
     match = _BARE_DOCTYPE.match(data, start)
     if match is None or data.find(b"<!DOCTYPE", match.end()) >= 0:
         raise BRDFLabError(
-            "only a bare DOCTYPE line (e.g. <!DOCTYPE BRDF>) is accepted in material files; "
+            f"only a bare DOCTYPE line (e.g. <!DOCTYPE BRDF>) is accepted in {kind} files; "
             "internal subsets and SYSTEM/PUBLIC identifiers are refused", path)
     return match.group(1).decode("ascii")
 

@@ -123,9 +123,6 @@ class Lobe(SourceLinked):
                 raise BRDFLabError(f"{prefix}{self.model.name} scaling factor {s:g} is above {MAX_SCALE:g} "
                                    "(no real material reflects that much)")
 
-    def values(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        return self.model.evaluate(wi, wo, self.params)
-
     def channel_values(self, wi: np.ndarray, wo: np.ndarray, n_channels: int) -> np.ndarray:
         """The lobe's value per channel, shape (..., 1) (the same in every channel) or
         (..., 3): see `lobe_channels`."""

@@ -63,7 +63,7 @@ class Parameter:
     doc: str = ""
     log: bool = False  # spans decades: the fitter searches it on a log scale
     # "float"; "bool" (0 or 1, a switch: held fixed by a fit); "colour" (one component of a
-    # colour, as BRDF Explorer's `color` parameters are read: NAME.r, NAME.g, NAME.b)
+    # colour, as BRDF Explorer's `color` parameters are read: NAME_r, NAME_g, NAME_b)
     kind: str = "float"
 
     @property

@@ -27,6 +27,10 @@ def _load_all() -> None:
             importlib.import_module(f"{__package__}.{info.name}")
 
 
+class DuplicateModelName(BRDFLabError):
+    """Two model files define one model name (never skipped like another bad file)."""
+
+
 def is_builtin(model: LobeModel) -> bool:
     return model.origin is None
 
@@ -49,7 +53,7 @@ def add_file_model(model: LobeModel) -> LobeModel:
         if held.origin.sha256 == model.origin.sha256:
             return held
         if held.origin.path != model.origin.path:
-            raise BRDFLabError(f"two model files define the model {model.xml_name!r}: {held.origin.path} and "
+            raise DuplicateModelName(f"two model files define the model {model.xml_name!r}: {held.origin.path} and "
                                f"{model.origin.path} (rename one: a model's name must be unique)")
     _MODELS[name] = model
     return model

@@ -18,7 +18,6 @@ MAX_PARAMS = 32  # the most parameters one lobe has (a program's NP lies between
 BUILTIN_PARAMS = 8  # the most a built-in has: a material of built-ins passes 8 per lobe
 MAX_LOBES = 64  # the shader unrolls every lobe and holds its parameters in uniforms
 GLSL_VERSION = "#version 330 core\n"
-LUMINANCE_GLSL = "vec3(0.2126, 0.7152, 0.0722)"
 
 
 def shader_source(name: str) -> str:

@@ -19,6 +19,7 @@ import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
+import moderngl
 import numpy as np
 
 from brdflab.errors import BRDFLabError
@@ -125,19 +126,13 @@ class _GlThread:
                 pad = f"{int(fmt[0]) * 4}x"
                 content.append((buffers[-1], " ".join(fmt if nm in present else pad for nm in names), *present))
             result = ctx.buffer(reserve=(e - s) * 12)
-            vao = ctx.vertex_array(prog, content) if content else ctx.vertex_array(prog, [])
-            vao.transform(result, mode=_points(), vertices=e - s)
+            vao = ctx.vertex_array(prog, content)
+            vao.transform(result, mode=moderngl.POINTS, vertices=e - s)
             out[s:e] = np.frombuffer(result.read(), np.float32).reshape(-1, 3)
             for b in buffers + [result]:
                 b.release()
             vao.release()
         return out.astype(float).reshape(shape + (3,))
-
-
-def _points():
-    import moderngl
-
-    return moderngl.POINTS
 
 
 class GlslEvaluator:
@@ -160,7 +155,7 @@ class GlslEvaluator:
 
 
 def probe_command(model) -> list[str]:
-    return [sys.executable, "-m", "brdflab.render.model_probe", str(model.origin.path), model.name]
+    return [sys.executable, "-m", "brdflab.render.model_probe", str(model.origin.path), model.origin.sha256, model.name]
 
 
 def probe_in_child(model) -> str | None:

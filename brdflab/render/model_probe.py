@@ -1,4 +1,4 @@
-"""`python -m brdflab.render.model_probe FILE NAME`: compile a model file's GLSL and evaluate
+"""`python -m brdflab.render.model_probe FILE SHA256 NAME`: compile a model file's GLSL and evaluate
 it on probe pairs at its defaults; print {"problem": null | "one line"} as JSON.
 
 Run by `model_eval.check` in a child process with a time limit: GLSL that never finishes
@@ -22,7 +22,7 @@ AGREE = 1e-3  # a formula and its GLSL twin agree this closely (float32 GLSL); t
 
 def problem(model) -> str | None:
     """What is wrong with the model's values at its defaults on the probe pairs, or None."""
-    from brdflab.models.files.library import PROBE_PAIRS, probe_pairs
+    from brdflab.models.files.library import PROBE_PAIRS, probe_pairs, values_problem
 
     wi, wo = probe_pairs(PROBE_PAIRS)
     p = model.defaults()
@@ -33,16 +33,9 @@ def problem(model) -> str | None:
     if seconds > SLOW_SECONDS:
         return (f"evaluating its GLSL at {PROBE_PAIRS:,} direction pairs took {seconds:.1f} s (a lobe takes "
                 "milliseconds): too slow to render or fit")
-    bad = ~np.isfinite(values).all(axis=-1)
-    if bad.mean() > 0.01:
-        k = int(np.argmax(bad))
-        return (f"its GLSL gives NaN or infinity at {bad.mean():.0%} of probe pairs at its defaults "
-                f"(e.g. wi = {np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()})")
-    neg = (values < -1e-6 * np.nanmax(np.abs(values), initial=1.0)).any(axis=-1) & ~bad
-    if neg.any():
-        k = int(np.argmax(neg))
-        return (f"its GLSL gives negative values at its defaults (e.g. {float(values[k].min()):.3g} at wi = "
-                f"{np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()}): a BRDF is never negative")
+    found = values_problem(values, wi, wo, "its GLSL")
+    if found:
+        return found
     if model.formula is not None:
         cpu = np.broadcast_to(model.formula.evaluate({**direction_values(wi, wo), **p}), wi.shape[:1])
         gpu = values[:, 0]
@@ -57,11 +50,11 @@ def problem(model) -> str | None:
 
 
 def main(argv: list[str]) -> int:
-    from brdflab.models.files import read_model_file
+    """argv: the file, its sha256 and its registry name, as the parent read them."""
+    from brdflab.models.files.library import rebuild
 
     try:
-        model = read_model_file(argv[0], argv[1] if len(argv) > 1 else None)
-        found = problem(model)
+        found = problem(rebuild(*argv[:3]))  # refused if the file changed since the parent read it
     except BRDFLabError as e:
         found = str(e).split(": ", 1)[1] if str(e).startswith(argv[0]) else str(e)
     print(json.dumps({"problem": found}))

@@ -24,9 +24,9 @@ TAB_UNIT = 12  # clear of the other modes' texture units (0–7, 10, 11)
 
 def _uniform_tables(rows: int) -> tuple[np.ndarray, np.ndarray]:
     """CDF and density rows that draw every half-vector cell with equal probability."""
-    from brdflab.models.files.sampler import _cells
+    from brdflab.models.files.sampler import cells
 
-    solid = _cells()[2].ravel()
+    solid = cells()[2].ravel()
     cdf = np.arange(1, solid.size + 1) / solid.size
     return np.broadcast_to(cdf, (rows, solid.size)), np.broadcast_to(1.0 / (solid.size * solid), (rows, solid.size))
 

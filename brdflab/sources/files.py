@@ -42,9 +42,9 @@ def resolve_measured(ref: MeasuredReference, warn: Warn | None = None):
 
 def is_model_file(path: Path) -> bool:
     """A BRDF Explorer `.brdf` or a BRDFLab model descriptor: a model, not a material."""
-    from brdflab.models.files.library import _is_descriptor
+    from brdflab.models.files.library import is_descriptor
 
-    return path.suffix.lower() == ".brdf" or (is_xml(path) and path.is_file() and _is_descriptor(path))
+    return path.suffix.lower() == ".brdf" or (is_xml(path) and path.is_file() and is_descriptor(path))
 
 
 def model_file_material(path: Path) -> AnalyticMaterial:

@@ -21,12 +21,18 @@ def is_model_file(text: str) -> bool:
     return Path(text).suffix.lower() in SUFFIXES
 
 
-def read_model_file(path: str | Path, name: str | None = None) -> FileModel:
-    """The model a file defines, by its format; BRDFLabError (one line naming the file)."""
+def read_model_bytes(path: str | Path) -> bytes:
+    """A model file's bytes, refused in one line if it is not a regular file or too large."""
+    return read_bounded(Path(path), MAX_MODEL_BYTES, "a model file")
+
+
+def read_model_file(path: str | Path, name: str | None = None, data: bytes | None = None) -> FileModel:
+    """The model a file defines (from `data` when its bytes are read already), by its
+    format; BRDFLabError (one line naming the file)."""
     from brdflab.models.files import brdf_explorer, descriptor
 
     path = Path(path)
-    data = read_bounded(path, MAX_MODEL_BYTES, "a model file")
+    data = read_model_bytes(path) if data is None else data
     if path.suffix.lower() == ".brdf":
         return brdf_explorer.read(path, data, name)
     if b"AnalyticBRDFModel" in data[:4096] or path.suffix.lower() == ".xml":
@@ -34,4 +40,4 @@ def read_model_file(path: str | Path, name: str | None = None) -> FileModel:
     raise BRDFLabError("not a model file (a BRDF Explorer .brdf or a BRDFLab model descriptor .xml)", path)
 
 
-__all__ = ["FileModel", "Origin", "SUFFIXES", "is_model_file", "read_model_file"]
+__all__ = ["FileModel", "Origin", "SUFFIXES", "is_model_file", "read_model_bytes", "read_model_file"]

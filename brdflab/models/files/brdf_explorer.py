@@ -24,7 +24,7 @@ from pathlib import Path
 from brdflab.errors import BRDFLabError
 from brdflab.models.base import Parameter
 from brdflab.models.files import glsl_text
-from brdflab.models.files.limits import MAX_MODEL_BYTES, check_parameters, number, parameter_name
+from brdflab.models.files.limits import check_parameters, number, parameter_name
 from brdflab.models.files.model import FileModel, GlslParts, Origin, model_glsl_id
 
 FORMAT = "BRDF Explorer"
@@ -35,8 +35,6 @@ COLOUR_COMPONENTS = ("r", "g", "b")
 def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
     """The model a `.brdf` file defines; BRDFLabError (one line naming the file and the line)
     if it is not a usable one. `name` is the registry name (default: the file's stem)."""
-    if len(data) > MAX_MODEL_BYTES:
-        raise BRDFLabError(f"{len(data):,} bytes is too large for a model file (at most {MAX_MODEL_BYTES:,})", path)
     try:
         text = data.decode("utf-8-sig")  # a byte-order mark (as Windows editors save) is not text
     except UnicodeDecodeError as e:
@@ -123,7 +121,7 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
             globals_.append(f"vec3 {g};")
             sets.append(f"{g} = vec3(p[{k}], p[{k + 1}], p[{k + 2}]);")
         k += len(comps)
-    renamed = glsl_text.precise_calls(glsl_text.prefixed(code, names + [n for _, n, _ in declared], prefix), [])
+    renamed = glsl_text.precise_calls(glsl_text.prefixed(code, names + [n for _, n, _ in declared], prefix))
     # the globals go on the line before the shader's first, so compiler line numbers stay the file's
     library = " ".join(globals_) + "\n" + renamed
     call = " ".join(sets) + f" return {prefix}BRDF(wi, wo, vec3(0.0, 0.0, 1.0), vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0));"

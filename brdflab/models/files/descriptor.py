@@ -19,14 +19,13 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from lxml import etree
 
 from brdflab.errors import BRDFLabError
 from brdflab.models.base import Parameter
 from brdflab.models.files import glsl_text
 from brdflab.models.files.expression import DIRECTIONS, FUNCTIONS, CONSTANTS, FormulaError, compile_formula
 from brdflab.models.files.model import FileModel, GlslParts, Origin, model_glsl_id
-from brdflab.models.files.limits import MAX_MODEL_BYTES, check_parameters, number, parameter_name
+from brdflab.models.files.limits import check_parameters, number, parameter_name
 
 FORMAT = "BRDFLab descriptor"
 
@@ -41,19 +40,11 @@ _HELPERS = {
 def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
     """The model a descriptor file defines; BRDFLabError (one line, naming the file) if it
     is not a usable one. `name` is the registry name (default: the file's model name)."""
-    from brdflab.io.xmlio import _PARSER_OPTIONS, _checked_doctype
+    from brdflab.io.xmlio import checked_root
 
-    if len(data) > MAX_MODEL_BYTES:
-        raise BRDFLabError(f"{len(data):,} bytes is too large for a model file (at most {MAX_MODEL_BYTES:,})", path)
-    try:
-        root = etree.fromstring(data, etree.XMLParser(**_PARSER_OPTIONS))
-    except etree.XMLSyntaxError as e:
-        raise BRDFLabError(f"malformed XML: {e}", path) from None
-    _checked_doctype(data, path)
-    if root is None or root.tag != "AnalyticBRDFModel":
+    root, _ = checked_root(data, path, "model")
+    if root.tag != "AnalyticBRDFModel":
         raise BRDFLabError("not a BRDFLab model descriptor (the root element must be <AnalyticBRDFModel>)", path)
-    if any(isinstance(n, etree._Entity) for n in root.iter()):
-        raise BRDFLabError("entity references are not accepted in model files", path)
 
     def fail(el, message: str) -> BRDFLabError:
         return BRDFLabError(f"line {el.sourceline}: {message}", path)
@@ -105,7 +96,7 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
     prefix = model_glsl_id(model_name, origin.sha256) + "_"
     names = glsl_text.declared_names(library_body) + ["params"]
     library = f"float {prefix}params[NP];\n" + glsl_text.precise_calls(
-        glsl_text.prefixed(library_body, names, prefix), [])
+        glsl_text.prefixed(library_body, names, prefix))
     call = (f"for (int k = 0; k < {max(n, 1)}; k++) {prefix}params[k] = p[k]; "
             f"int j = 0; return {prefix}{function}(wi, wo, j);")
     glsl = GlslParts(library, call, returns_colour=False, line_offset=(glsl_el.sourceline or 1) - 1 - len(helpers))

@@ -93,12 +93,12 @@ def prefixed(text: str, names, prefix: str) -> str:
 PRECISE = {"acos": "precise_acos", "asin": "precise_asin", "atan": "precise_atan"}
 
 
-def precise_calls(text: str, declared) -> str:
+def precise_calls(text: str) -> str:
     """Calls of acos/asin/atan made to the lab's full-precision versions (shaders/common.glsl):
     drivers may approximate them far below float precision, and a file model's render must
-    agree with its CPU evaluation. A file that defines its own keeps its own."""
-    mapping = {k: v for k, v in PRECISE.items() if k not in set(declared)}
-    return "".join(mapping.get(t, t) if kind == "name" else t for kind, t in tokens(text))
+    agree with its CPU evaluation. Apply after `prefixed`: a file's own acos is then
+    <prefix>acos, and keeps being called."""
+    return "".join(PRECISE.get(t, t) if kind == "name" else t for kind, t in tokens(text))
 
 
 def identifier(text: str) -> str:

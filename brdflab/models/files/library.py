@@ -11,6 +11,7 @@ file…") is an error. A model is registered whole or not at all.
 
 from __future__ import annotations
 
+import hashlib
 import os
 from pathlib import Path
 from typing import Callable, Iterable
@@ -18,11 +19,12 @@ from typing import Callable, Iterable
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.models.files import SUFFIXES, read_model_file
+from brdflab.io.resources import MODELS_ENV
+from brdflab.models.files import SUFFIXES, is_model_file, read_model_bytes, read_model_file
+from brdflab.models.files.expression import direction_values
 from brdflab.models.files.model import FileModel
-from brdflab.models.registry import add_file_model, file_models, find_file_model
+from brdflab.models.registry import DuplicateModelName, add_file_model, file_models, find_file_model, model_names
 
-ENV = "BRDFLAB_MODELS"
 MAX_FILES_PER_FOLDER = 1000
 PROBE_PAIRS = 4096
 
@@ -30,7 +32,7 @@ Warn = Callable[[str], None]
 
 
 def env_folders() -> list[Path]:
-    return [Path(p) for p in os.environ.get(ENV, "").split(os.pathsep) if p.strip()]
+    return [Path(p) for p in os.environ.get(MODELS_ENV, "").split(os.pathsep) if p.strip()]
 
 
 def model_files(folder: Path) -> list[Path]:
@@ -40,10 +42,11 @@ def model_files(folder: Path) -> list[Path]:
     found = sorted(p for p in folder.iterdir() if p.suffix.lower() in SUFFIXES and p.is_file())
     if len(found) > MAX_FILES_PER_FOLDER:
         raise BRDFLabError(f"{len(found):,} model files (at most {MAX_FILES_PER_FOLDER:,} a folder)", folder)
-    return [p for p in found if p.suffix.lower() == ".brdf" or _is_descriptor(p)]
+    return [p for p in found if p.suffix.lower() == ".brdf" or is_descriptor(p)]
 
 
-def _is_descriptor(path: Path) -> bool:
+def is_descriptor(path: Path) -> bool:
+    """Whether a file's first 4 KB name BRDFLab's <AnalyticBRDFModel> (a model, not a material)."""
     try:
         with open(path, "rb") as f:
             return b"AnalyticBRDFModel" in f.read(4096)
@@ -56,25 +59,30 @@ def check_model(model: FileModel) -> None:
     its defaults, or its GLSL does not compile, runs away or gives NaN (child process)."""
     if model.formula is not None:
         wi, wo = probe_pairs(PROBE_PAIRS)
-        values = model.formula.evaluate({**_directions(wi, wo), **model.defaults()})
-        values = np.broadcast_to(values, wi.shape[:1])
-        bad = ~np.isfinite(values)
-        if bad.mean() > 0.01:
-            raise BRDFLabError(f"its <Equation> gives NaN or infinity at {bad.mean():.0%} of probe pairs at "
-                               "its defaults", model.origin.path)
-        scale = np.nanmax(np.abs(np.where(bad, 0.0, values)), initial=1.0)
-        if (values[~bad] < -1e-6 * scale).any():
-            raise BRDFLabError(f"its <Equation> gives negative values at its defaults (down to "
-                               f"{float(values[~bad].min()):.3g}): a BRDF is never negative", model.origin.path)
+        values = model.formula.evaluate({**direction_values(wi, wo), **model.defaults()})
+        problem = values_problem(np.broadcast_to(values, wi.shape[:1])[:, None], wi, wo, "its <Equation>")
+        if problem:
+            raise BRDFLabError(problem, model.origin.path)
     from brdflab.models.files.backend import glsl_evaluator
 
     glsl_evaluator().check(model)
 
 
-def _directions(wi, wo):
-    from brdflab.models.files.expression import direction_values
-
-    return direction_values(wi, wo)
+def values_problem(values: np.ndarray, wi: np.ndarray, wo: np.ndarray, what: str) -> str | None:
+    """What is wrong with a model's values (N, channels) at probe pairs at its defaults: NaN or
+    infinity at more than 1 % of them, or any negative value; None if nothing."""
+    bad = ~np.isfinite(values).all(axis=-1)
+    if bad.mean() > 0.01:
+        k = int(np.argmax(bad))
+        return (f"{what} gives NaN or infinity at {bad.mean():.0%} of probe pairs at its defaults "
+                f"(e.g. wi = {np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()})")
+    finite = np.where(np.isfinite(values), values, 0.0)
+    neg = (finite < -1e-6 * np.abs(finite).max(initial=1.0)).any(axis=-1)
+    if neg.any():
+        k = int(np.argmax(neg))
+        return (f"{what} gives negative values at its defaults (e.g. {float(finite[k].min()):.3g} at wi = "
+                f"{np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()}): a BRDF is never negative")
+    return None
 
 
 def probe_pairs(n: int, seed: int = 7) -> tuple[np.ndarray, np.ndarray]:
@@ -91,22 +99,15 @@ def load_model_file(path: str | Path, check: bool = True) -> FileModel:
     """Read, check and register one model file; the registered model (an identical file
     already registered is that model). BRDFLabError, naming the file, if it is unusable."""
     path = Path(path)
-    for m in file_models():  # the same file, unchanged: no second read or check
-        if m.origin.path == path.resolve() and m.origin.sha256 == _sha256(path):
+    data = read_model_bytes(path)
+    sha256 = hashlib.sha256(data).hexdigest()
+    for m in file_models():  # the same file, unchanged: no second parse or check
+        if m.origin.path == path.resolve() and m.origin.sha256 == sha256:
             return m
-    model = read_model_file(path)
+    model = read_model_file(path, data=data)
     if check:
         check_model(model)
     return add_file_model(model)
-
-
-def _sha256(path: Path) -> str | None:
-    import hashlib
-
-    try:
-        return hashlib.sha256(path.read_bytes()).hexdigest() if path.stat().st_size <= (1 << 20) else None
-    except OSError:
-        return None
 
 
 def load_folders(folders: Iterable[Path], warn: Warn | None = None) -> list[FileModel]:
@@ -117,9 +118,9 @@ def load_folders(folders: Iterable[Path], warn: Warn | None = None) -> list[File
         for path in model_files(Path(folder)):
             try:
                 loaded.append(load_model_file(path))
+            except DuplicateModelName:
+                raise
             except BRDFLabError as e:
-                if "two model files define" in str(e):
-                    raise
                 if warn is None:
                     raise
                 warn(str(e))
@@ -129,10 +130,6 @@ def load_folders(folders: Iterable[Path], warn: Warn | None = None) -> list[File
 def resolve_lobe(text: str) -> str:
     """A lobe argument as a registry name: a model's name, or the path of a model file
     (loaded, checked and registered)."""
-    from brdflab.models.files import is_model_file
-
-    from brdflab.models.registry import model_names
-
     if is_model_file(text) and text not in model_names():
         if not Path(text).exists():
             raise BRDFLabError("no such model file", text)
@@ -166,7 +163,7 @@ def resolve_reference(model_name: str, path_text: str | None, sha256: str | None
         return found  # the reader warns when its checksum is not the one recorded
     where = f" from {path_text}" if path_text else ""
     raise MissingModelFile(f"the lobe model {model_name!r}{where} is not available: its model file is missing "
-                           f"(put it back, or add its folder with --models DIR or {ENV})",
+                           f"(put it back, or add its folder with --models DIR or {MODELS_ENV})",
                            model_name=model_name, recorded=path_text)
 
 

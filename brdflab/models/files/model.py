@@ -22,6 +22,7 @@ from typing import Mapping
 
 import numpy as np
 
+from brdflab.geometry.vec import rotate_about_z
 from brdflab.models.base import LobeModel, Parameter, SplitSum
 from brdflab.models.files.expression import Formula, direction_values
 
@@ -53,7 +54,8 @@ class GlslParts:
 
 
 class FileModel(LobeModel):
-    """A lobe model defined by a model file. Instances are stateless once built."""
+    """A lobe model defined by a model file. What it computes depends on the parameters
+    passed in alone; it keeps caches of work done for them (sampling tables, isotropy)."""
 
     def __init__(self, name: str, model_name: str, parameters: tuple[Parameter, ...], isotropic: bool,
                  origin: Origin, glsl: GlslParts, formula: Formula | None = None, summary: str = "",
@@ -65,7 +67,7 @@ class FileModel(LobeModel):
         self.origin = origin
         self.glsl = glsl
         self.formula = formula
-        self.colour = glsl.returns_colour and formula is None
+        self.colour = glsl.returns_colour  # a BRDF Explorer file's vec3 (descriptors have one value)
         self.summary = summary or f"{origin.format} model from {origin.path.name}"
         self.reference = str(origin.path)
         self.warnings = list(warnings)
@@ -106,7 +108,7 @@ class FileModel(LobeModel):
         found isotropic is tabulated for 24 views instead of 288."""
         if self.isotropic:
             return True
-        key = tuple(float(np.asarray(params[q.name]).ravel()[0]) for q in self.parameters if q.name in params)
+        key = self._key(self._with_defaults(params))
         if key not in self._isotropic_at:
             if len(self._isotropic_at) > 64:
                 self._isotropic_at.clear()
@@ -117,11 +119,10 @@ class FileModel(LobeModel):
         from brdflab.models.files.library import probe_pairs
 
         wi, wo = probe_pairs(64, seed=13)
-        angle = np.random.default_rng(17).uniform(0.3, 6.0, (64, 1))
-        turn = lambda w: np.concatenate([np.cos(angle) * w[:, :1] - np.sin(angle) * w[:, 1:2],
-                                         np.sin(angle) * w[:, :1] + np.cos(angle) * w[:, 1:2], w[:, 2:]], axis=1)
+        angle = np.random.default_rng(17).uniform(0.3, 6.0, 64)
         p = self._with_defaults(params)
-        a, b = self.evaluate_rgb(wi, wo, p), self.evaluate_rgb(turn(wi), turn(wo), p)
+        a = self.evaluate_rgb(wi, wo, p)
+        b = self.evaluate_rgb(rotate_about_z(wi, angle), rotate_about_z(wo, angle), p)
         return bool(np.allclose(a, b, rtol=1e-4, atol=1e-7 * max(float(np.abs(a).max()), 1e-30)))
 
     def complete(self, given: Mapping[str, float]) -> dict[str, float]:
@@ -158,10 +159,14 @@ class FileModel(LobeModel):
         return [p[q.name] for q in self.parameters]
 
     # --- sampling (generic: the file's own samplers are not trusted, see sampler.py)
+    def _key(self, p: Mapping) -> tuple:
+        """The parameter values as a cache key (a lobe's caches hold work per parameter set)."""
+        return tuple(float(np.asarray(p[q.name]).ravel()[0]) for q in self.parameters)
+
     def _sampler(self, p):
         from brdflab.models.files.sampler import TabulatedSampler
 
-        key = tuple(float(np.asarray(p[q.name]).ravel()[0]) for q in self.parameters)
+        key = self._key(p)
         s = self._samplers.get(key)
         if s is None:
             if len(self._samplers) > 8:
@@ -187,19 +192,11 @@ class FileModel(LobeModel):
     # --- GLSL twin
     def glsl_source(self) -> str:
         i = self._id
-        lines = [self.glsl.library]
-        kind = "vec3" if self.glsl.returns_colour else "float"
-        lines.append(f"{kind} {i}_value(vec3 wi, vec3 wo, float p[NP]) {{ {self.glsl.call} }}")
-        if self.colour:
-            lines.append(f"vec3 brdf_{i}_rgb(vec3 wi, vec3 wo, float p[NP]) {{ return {i}_value(wi, wo, p); }}")
-            lines.append(f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) "
-                         f"{{ return dot({i}_value(wi, wo, p), vec3({', '.join(map(str, LUMINANCE))})); }}")
-        elif self.glsl.returns_colour:  # a formula model whose GLSL gives a colour: its luminance
-            lines.append(f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) "
-                         f"{{ return dot({i}_value(wi, wo, p), vec3({', '.join(map(str, LUMINANCE))})); }}")
-        else:
-            lines.append(f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) {{ return {i}_value(wi, wo, p); }}")
-        return "\n".join(lines) + "\n"
+        if not self.colour:
+            return f"{self.glsl.library}\nfloat brdf_{i}(vec3 wi, vec3 wo, float p[NP]) {{ {self.glsl.call} }}\n"
+        return (f"{self.glsl.library}\nvec3 brdf_{i}_rgb(vec3 wi, vec3 wo, float p[NP]) {{ {self.glsl.call} }}\n"
+                f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) "
+                f"{{ return dot(brdf_{i}_rgb(wi, wo, p), vec3({', '.join(map(str, LUMINANCE))})); }}\n")
 
     # sampled by the generic tabulated sampler, in NumPy (_sample, _pdf) and in the renderers
     # (shaders/tabulated.glsl, textures from render/tabulated.py)

@@ -18,7 +18,11 @@ whatever the lobe, and close to f cos θi where the cells resolve it.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 import numpy as np
+
+from brdflab.geometry.sampling import half_vector_pdf, reflect
+from brdflab.geometry.vec import rotate_about_z
 
 N_THETA, N_PHI = 64, 128
 N_VIEWS = 24  # tabulated view elevations (isotropic lobes)
@@ -34,7 +38,8 @@ def theta_edges() -> np.ndarray:
     return 0.5 * math.pi * (np.arange(N_THETA + 1) / N_THETA) ** 2
 
 
-def _cells():
+@lru_cache(maxsize=1)
+def cells():
     """Cell edges in θ, the cells' centre directions (N_THETA, N_PHI, 3) and solid angles."""
     t_edges = theta_edges()
     p_edges = np.linspace(0.0, 2.0 * math.pi, N_PHI + 1)
@@ -44,21 +49,14 @@ def _cells():
     st = np.sin(t)
     dirs = np.stack([st[:, None] * np.cos(p)[None, :], st[:, None] * np.sin(p)[None, :],
                      np.broadcast_to(np.cos(t)[:, None], (N_THETA, N_PHI))], axis=-1)
+    for a in (t_edges, dirs, solid):
+        a.flags.writeable = False  # shared by every caller (cached)
     return t_edges, dirs, solid
-
-
-def _reflect(wo: np.ndarray, h: np.ndarray) -> np.ndarray:
-    return 2.0 * (wo * h).sum(-1, keepdims=True) * h - wo
 
 
 def _theta_cell(cos_t: np.ndarray) -> np.ndarray:
     theta = np.arccos(np.clip(cos_t, -1.0, 1.0))
     return np.minimum((np.sqrt(theta / (0.5 * math.pi)) * N_THETA).astype(int), N_THETA - 1)
-
-
-def _rotate_z(w: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * w[..., 0] - s * w[..., 1], s * w[..., 0] + c * w[..., 1], w[..., 2]], axis=-1)
 
 
 class TabulatedSampler:
@@ -94,13 +92,13 @@ class TabulatedSampler:
             self._build(todo[start:start + VIEWS_PER_PASS])
 
     def _build(self, todo: np.ndarray) -> None:
-        _, dirs, solid = _cells()
+        _, dirs, solid = cells()
         views = np.stack(np.meshgrid(self.view_theta, self.view_phi, indexing="ij"), -1).reshape(-1, 2)[todo]
         wo = np.stack([np.sin(views[:, 0]) * np.cos(views[:, 1]), np.sin(views[:, 0]) * np.sin(views[:, 1]),
                        np.cos(views[:, 0])], -1)
         h = np.broadcast_to(dirs.reshape(1, -1, 3), (len(wo), N_THETA * N_PHI, 3))
         wo_b = np.broadcast_to(wo[:, None], h.shape)
-        wi = _reflect(wo_b, h)
+        wi = reflect(wo_b, h)
         f = self.model.evaluate(wi.reshape(-1, 3), wo_b.reshape(-1, 3), self.params).reshape(len(wo), -1)
         f = np.where(np.isfinite(f) & (f > 0), f, 0.0)
         jacobian = 4.0 * np.abs((wo_b * h).sum(-1))
@@ -172,8 +170,8 @@ class TabulatedSampler:
         phi = (ip + u[:, 1]) * (2.0 * math.pi / N_PHI)
         sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
         h = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], -1)
-        h = _rotate_z(h, rotation if self.isotropic else np.zeros(n))
-        wi = _reflect(wo, h)
+        h = rotate_about_z(h, rotation if self.isotropic else np.zeros(n))
+        wi = reflect(wo, h)
         wi = np.where(cosine[:, None], cosine_hemisphere(np.stack([first, u[:, 1]], -1)), wi)
         return wi.reshape(shape + (3,))
 
@@ -182,19 +180,20 @@ class TabulatedSampler:
         wi = np.broadcast_to(wi, shape + (3,)).reshape(-1, 3)
         wo = np.broadcast_to(wo, shape + (3,)).reshape(-1, 3)
         n = len(wi)
-        h = wi + wo
-        h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
-        density_h = np.zeros(n)
         views = self._views(wo)
         self.ensure([k for k, _, _ in views])
-        for k, weight, phi in views:
-            local = _rotate_z(h, -np.broadcast_to(phi, (n,))) if self.isotropic else h
-            it = _theta_cell(local[:, 2])
-            ip = np.minimum((np.mod(np.arctan2(local[:, 1], local[:, 0]), 2.0 * math.pi)
-                             / (2.0 * math.pi) * N_PHI).astype(int), N_PHI - 1)
-            density_h += np.broadcast_to(weight, (n,)) * self._density[np.broadcast_to(k, (n,)), it * N_PHI + ip]
-        woh = np.abs((wo * h).sum(-1))
-        tabulated = np.where(woh > 1e-12, density_h / (4.0 * np.where(woh > 1e-12, woh, 1.0)), 0.0)
+
+        def density_h(h):
+            out = np.zeros(n)
+            for k, weight, phi in views:
+                local = rotate_about_z(h, -np.broadcast_to(phi, (n,))) if self.isotropic else h
+                it = _theta_cell(local[:, 2])
+                ip = np.minimum((np.mod(np.arctan2(local[:, 1], local[:, 0]), 2.0 * math.pi)
+                                 / (2.0 * math.pi) * N_PHI).astype(int), N_PHI - 1)
+                out += np.broadcast_to(weight, (n,)) * self._density[np.broadcast_to(k, (n,)), it * N_PHI + ip]
+            return out
+
+        tabulated = half_vector_pdf(wi, wo, density_h)
         out = (1.0 - COSINE_SHARE) * tabulated + COSINE_SHARE * np.maximum(wi[:, 2], 0.0) / math.pi
         return np.where((wi[:, 2] > 0) & (wo[:, 2] > 0), out, 0.0).reshape(shape)
 
@@ -205,7 +204,7 @@ def equivalent_roughness(model, params: dict) -> float | None:
     D(n) = 1/(π α²) (Beckmann and GGX alike), so α = √(albedo / (4π f(n, n))). A lobe no
     sharper than a Lambertian (α ≥ 0.5, where a Lambertian gives exactly 0.5) is lit by the
     irradiance: None."""
-    _, dirs, solid = _cells()
+    _, dirs, solid = cells()
     wi = dirs.reshape(-1, 3)
     up = np.array([[0.0, 0.0, 1.0]])
     f = model.evaluate(wi, np.broadcast_to(up, wi.shape), params)
