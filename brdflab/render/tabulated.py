@@ -37,11 +37,12 @@ class TabulatedTextures:
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
         self.background = False  # build tables in a thread (the window), else before drawing
-        self._key = None  # what the uploaded texture holds: (material key, final or provisional)
-        self._texture: moderngl.TextureArray | None = None
-        self._aniso = np.zeros(1, np.float32)
+        self._final: tuple[tuple, moderngl.TextureArray] | None = None  # (material key, its tables)
+        self._stand_in: tuple[tuple, moderngl.TextureArray] | None = None  # ((layers, rows), uniform tables)
+        self.provisional = False  # whether the last bind drew from the uniform stand-ins
         self._builder: ThreadPoolExecutor | None = None
-        self._pending: tuple[tuple, Future] | None = None
+        self._pending: tuple[tuple, Future] | None = None  # (material key, its build)
+        self._wanted = None  # the key of the material drawn last
 
     @staticmethod
     def key(material: AnalyticMaterial) -> tuple:
@@ -54,48 +55,59 @@ class TabulatedTextures:
         slots = tabulated_slots(models_of(material))
         if not slots or "u_tab" not in program:
             return
-        key = self.key(material)
+        key = self._wanted = self.key(material)
         samplers = [material.lobes[k].model.tabulated_sampler(material.lobes[k].params) for k in slots]
-        if self._key != (key, True):
-            final = not self.background or self._built(key, samplers)
-            if self._key != (key, final):
-                self._upload(samplers, final)
-                self._key = (key, final)
-        self._texture.use(TAB_UNIT)
+        self.provisional = self.background and (self._final is None or self._final[0] != key) \
+            and not self._built(key, samplers)
+        texture = self._stand_in_texture(samplers) if self.provisional else self._final_texture(key, samplers)
+        texture.use(TAB_UNIT)
         program["u_tab"].value = TAB_UNIT
-        set_uniforms(program, {"u_tab_aniso": self._aniso})
-
-    @property
-    def provisional(self) -> bool:
-        """Whether the uploaded tables are the uniform stand-ins (the real ones are building)."""
-        return self._key is not None and not self._key[1]
+        set_uniforms(program, {"u_tab_aniso": np.array([0.0 if s.isotropic else 1.0 for s in samplers], np.float32)})
 
     def building_done(self) -> bool:
         """Whether the tables being built in the thread are ready to upload."""
-        return self._pending is not None and self._pending[1].done()
+        return self._pending is not None and self._pending[1].done() and self._pending[1].result()
 
     def _built(self, key: tuple, samplers: list) -> bool:
-        """Whether the tables are built; if not, start building them in a thread."""
-        if self._pending is None or self._pending[0] != key:
+        """Whether the tables are built; if not, start building them in a thread. A build for
+        a material no longer drawn (a slider moved on) stops at its next pass."""
+        pending = self._pending
+        if pending is None or pending[0] != key or (pending[1].done() and not pending[1].result()):
             if self._builder is None:
                 self._builder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="brdflab-tables")
-            self._pending = (key, self._builder.submit(lambda: [s.cdf for s in samplers]))
-        return self._pending[1].done()
+            stop = lambda: self._wanted != key
+            self._pending = (key, self._builder.submit(lambda: all([s.ensure_all(stop) for s in samplers])))
+        return self.building_done()
 
-    def _upload(self, samplers: list, final: bool) -> None:
-        self.release()
+    def _final_texture(self, key: tuple, samplers: list) -> moderngl.TextureArray:
+        if self._final is None or self._final[0] != key:
+            if self._final is not None:
+                self._final[1].release()
+            self._final = (key, self._texture(samplers, [(s.cdf, s.density) for s in samplers]))
+        return self._final[1]
+
+    def _stand_in_texture(self, samplers: list) -> moderngl.TextureArray:
+        """Uniform tables, uploaded once for as many layers and rows (they hold no values)."""
+        shape = (len(samplers), max(len(s.view_theta) * len(s.view_phi) for s in samplers))
+        if self._stand_in is None or self._stand_in[0] != shape:
+            if self._stand_in is not None:
+                self._stand_in[1].release()
+            self._stand_in = (shape, self._texture(samplers, [_uniform_tables(shape[1])] * shape[0]))
+        return self._stand_in[1]
+
+    def _texture(self, samplers: list, tables: list) -> moderngl.TextureArray:
         rows = max(len(s.view_theta) * len(s.view_phi) for s in samplers)
-        cells = samplers[0].cdf.shape[1] if final else _uniform_tables(1)[0].shape[1]
-        data = np.zeros((len(samplers), rows, cells, 2), np.float32)
-        for layer, s in enumerate(samplers):
-            cdf, density = (s.cdf, s.density) if final else _uniform_tables(rows)
+        cells = tables[0][0].shape[1]
+        data = np.zeros((len(tables), rows, cells, 2), np.float32)
+        for layer, (cdf, density) in enumerate(tables):
             data[layer, : len(cdf), :, 0] = cdf
             data[layer, : len(cdf), :, 1] = density
-        self._texture = self.ctx.texture_array((cells, rows, len(samplers)), 2, data.tobytes(), dtype="f4")
-        self._texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._aniso = np.array([0.0 if s.isotropic else 1.0 for s in samplers], np.float32)
+        texture = self.ctx.texture_array((cells, rows, len(tables)), 2, data.tobytes(), dtype="f4")
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return texture
 
     def release(self) -> None:
-        if self._texture is not None:
-            self._texture.release()
-        self._texture, self._key = None, None
+        for held in (self._final, self._stand_in):
+            if held is not None:
+                held[1].release()
+        self._final = self._stand_in = None

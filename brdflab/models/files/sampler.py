@@ -76,20 +76,27 @@ class TabulatedSampler:
 
     @property
     def cdf(self) -> np.ndarray:
-        self.ensure(np.arange(len(self._built)))
+        self.ensure_all()
         return self._cdf
 
     @property
     def density(self) -> np.ndarray:
-        self.ensure(np.arange(len(self._built)))
+        self.ensure_all()
         return self._density
 
-    def ensure(self, tables) -> None:
-        """Build the tables among `tables` (indices) that are not built yet."""
+    def ensure(self, tables, stop=None) -> bool:
+        """Build the tables among `tables` (indices) that are not built yet; whether all are.
+        `stop()`, asked between passes, abandons the rest (a build nobody waits for now)."""
         todo = np.unique(np.asarray(tables, int).ravel())
         todo = todo[~self._built[todo]]
         for start in range(0, todo.size, VIEWS_PER_PASS):
+            if stop is not None and stop():
+                return False
             self._build(todo[start:start + VIEWS_PER_PASS])
+        return True
+
+    def ensure_all(self, stop=None) -> bool:
+        return self.ensure(np.arange(len(self._built)), stop)
 
     def _build(self, todo: np.ndarray) -> None:
         _, dirs, solid = cells()
