@@ -48,7 +48,7 @@ def random_params(model, rng):
 
 
 def run_glsl(ctx, material, wi, wo):
-    prog = ctx.program(vertex_shader=GLSL_VERSION + material_source(tuple(l.model.name for l in material.lobes)) + VERTEX,
+    prog = ctx.program(vertex_shader=GLSL_VERSION + material_source(tuple(l.model.name for l in material.lobes), n_channels=material.n_channels) + VERTEX,
                        varyings=["out_f", "out_pdf", "out_sample"])
     set_uniforms(prog, lobe_uniforms(material, np.array([1.0])))
     data = np.hstack([wi, wo]).astype("f4")

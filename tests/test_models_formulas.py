@@ -107,7 +107,59 @@ def published(name, p, wi, wo):
         f0 = (1 - m) * 1 + m * p["tint"]
         e = 2 / (1.00392156862745 - s)
         return s * s / dh * schlick(f0, dh) * ch**e
+    if name == "Principled":
+        return principled_burley(p, wi, wo)
     raise AssertionError(name)
+
+
+def principled_burley(p, wi, wo):
+    """Burley 2012's BRDF Explorer `disney.brdf`, line by line in scalar math (its 2012 diffuse
+    Fd, not Mitsuba's split form), with the three changes Mitsuba 3 makes (see the model's
+    docstring): the untinted dielectric Fresnel exact at η(specular), and the clear coat
+    without 1/(4 cos θi cos θo). Returns the luminance, as a colour lobe's `evaluate` does."""
+    L, V = wi, wo
+    H = [a + b for a, b in zip(L, V)]
+    n = math.sqrt(sum(x * x for x in H))
+    H = [x / n for x in H]
+    NdotL, NdotV, NdotH, LdotH = L[2], V[2], H[2], sum(a * b for a, b in zip(L, H))
+    sw = lambda u: min(1.0, max(0.0, 1 - u)) ** 5  # SchlickFresnel
+    mix = lambda a, b, t: a * (1 - t) + b * t
+    base = [p["base_color_r"], p["base_color_g"], p["base_color_b"]]
+    lum = 0.212671 * base[0] + 0.715160 * base[1] + 0.072169 * base[2]
+    ctint = [c / lum for c in base] if lum > 0 else [1.0, 1.0, 1.0]
+    m, r = p["metallic"], p["roughness"]
+    FL, FV = sw(NdotL), sw(NdotV)
+    Fd90 = 0.5 + 2 * LdotH * LdotH * r
+    Fd = mix(1.0, Fd90, FL) * mix(1.0, Fd90, FV)
+    Fss90 = LdotH * LdotH * r
+    Fss = mix(1.0, Fss90, FL) * mix(1.0, Fss90, FV)
+    ss = 1.25 * (Fss * (1 / (NdotL + NdotV) - .5) + .5)
+    aspect = math.sqrt(1 - p["anisotropic"] * .9)
+    ax, ay = max(.001, r * r / aspect), max(.001, r * r * aspect)
+    Ds = 1 / (math.pi * ax * ay * ((H[0] / ax) ** 2 + (H[1] / ay) ** 2 + NdotH * NdotH) ** 2)
+    g1 = lambda v: 2 * v[2] / (v[2] + math.sqrt((v[0] * ax) ** 2 + (v[1] * ay) ** 2 + v[2] ** 2))
+    Gs = g1(L) * g1(V) / (4 * NdotL * NdotV)  # disney.brdf's smithG_GGX_aniso product
+    FH = sw(LdotH)
+    eta = 2 / (1 - math.sqrt(0.08 * p["specular"])) - 1
+    ct = math.sqrt(1 - (1 - LdotH ** 2) / eta ** 2)
+    rs, rp = (LdotH - eta * ct) / (LdotH + eta * ct), (eta * LdotH - ct) / (eta * LdotH + ct)
+    f_exact = 0.5 * (rs * rs + rp * rp)
+    r0 = 0.08 * p["specular"]
+    a2 = mix(.1, .001, p["clearcoat_gloss"]) ** 2
+    Dr = (a2 - 1) / (math.pi * math.log(a2) * (1 + (a2 - 1) * NdotH * NdotH))
+    g1c = lambda c: 2 * c / (c + math.sqrt(.0625 + c * c - .0625 * c * c))
+    Fr = mix(.04, 1.0, FH)
+    out = []
+    for k in range(3):
+        Cdlin = base[k]
+        Fs = (1 - m) * (1 - p["specular_tint"]) * f_exact + m * mix(Cdlin, 1, FH) \
+            + (1 - m) * p["specular_tint"] * mix(ctint[k] * r0, 1, FH)
+        Csheen = mix(1, ctint[k], p["sheen_tint"])
+        Fsheen = FH * p["sheen"] * Csheen
+        value = ((1 / math.pi) * mix(Fd, ss, p["subsurface"]) * Cdlin + Fsheen) * (1 - m) + Gs * Fs * Ds \
+            + .25 * p["clearcoat"] * g1c(NdotL) * g1c(NdotV) * Fr * Dr
+        out.append(value)
+    return 0.2126 * out[0] + 0.7152 * out[1] + 0.0722 * out[2]
 
 
 PARAMS = {
@@ -126,6 +178,9 @@ PARAMS = {
     "OrenNayar": {"sigma": 0.5},
     "Strauss": {"smoothness": 0.6, "metalness": 0.4, "transparency": 0.1, "color": 0.7},
     "Schwenk": {"smoothness": 0.7, "metalness": 0.6, "tint": 1.4},
+    "Principled": {"base_color_r": 0.9, "base_color_g": 0.4, "base_color_b": 0.2, "metallic": 0.3, "subsurface": 0.6,
+                   "specular": 0.7, "specular_tint": 0.4, "roughness": 0.35, "anisotropic": 0.6, "sheen": 0.5,
+                   "sheen_tint": 0.7, "clearcoat": 0.8, "clearcoat_gloss": 0.6},
 }
 
 

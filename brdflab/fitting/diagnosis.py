@@ -30,7 +30,7 @@ def bound_warnings(material: AnalyticMaterial, at_default: bool = True) -> list[
     model's default (a designed material: Disney's metallic = 0 is a choice, not a symptom)."""
     out = []
     for k, lobe in enumerate(material.lobes):
-        for p in lobe.model.parameters:
+        for p in ([] if lobe.model.weights_on_bounds else lobe.model.parameters):
             if p.name in lobe.model.scale_invariant or not p.fitted or p.lower == p.upper:
                 continue  # a switch (a file's bool) sits on a bound by design
             if not at_default and lobe.params[p.name] == p.default:

@@ -45,6 +45,8 @@ FD_STEP = 1e-4
 # a parameter that starts within this fraction of its (logistic) range from a bound is
 # moved inside first: on the bound itself the bounded map has no gradient
 START_MARGIN = 0.01
+# a search variable this far into its logistic tail has run onto the bound
+SATURATED = 1e-15
 
 
 
@@ -66,7 +68,10 @@ class Bounded:
 
     def to_x(self, u: float) -> float:
         a, b, c = self._span()
-        v = a + (b - a) / (1.0 + math.exp(-max(-40.0, min(40.0, u))))
+        t = 1.0 / (1.0 + math.exp(-max(-40.0, min(40.0, u))))
+        if t < SATURATED or t > 1.0 - SATURATED:  # run onto a bound: the bound itself (not 4e-18)
+            return self.lo if t < 0.5 else self.hi
+        v = a + (b - a) * t
         return min(self.hi, max(self.lo, self.lo + math.exp(v) - c if self.log else v))
 
     def position(self, x: float) -> float:
@@ -166,16 +171,18 @@ def free_blocks(material: AnalyticMaterial, magnitude_cap: float | None = None) 
         for p in lobe.model.parameters:
             if p.name not in group and p.fitted and p.upper > p.lower:  # a switch keeps its value
                 blocks.append(FreeBlock(l, (p.name,), "scalar", Bounded(p.lower, p.upper, p.log)))
-        if material.combination == "Fixed":
+        if material.combination == "Fixed" and lobe.model.scaled:
             blocks.append(FreeBlock(l, (), "magnitude", Positive() if magnitude_cap is None else Capped(magnitude_cap)))
     return blocks
 
 
 def parameter_count(material: AnalyticMaterial) -> int:
     """Every number the fit sets: nonlinear search variables, plus one scaling factor per
-    lobe and channel in Linear combinations (solved by NNLS)."""
+    lobe and channel in Linear combinations (solved by NNLS; a lobe that carries its own
+    magnitude, Principled, has none)."""
     nonlinear = sum(b.size for b in free_blocks(material))
-    return nonlinear + (material.n_channels * len(material.lobes) if material.combination == "Linear" else 0)
+    scaled = sum(l.model.scaled for l in material.lobes)
+    return nonlinear + (material.n_channels * scaled if material.combination == "Linear" else 0)
 
 
 # --- options, progress, result -----------------------------------------------------------
@@ -406,12 +413,27 @@ class _Problem:
                 rows[block.lobe] = extra_row[k - 1]
             if self.linear:
                 for c in range(C):
-                    A[c, k, rows] = _nnls(G[c][np.ix_(rows, rows)], b[c][rows])
+                    A[c, k, rows] = self._linear_scales(G[c], b[c], rows, c)
             else:
                 _, mags = self.params_of(u if k == 0 else perturbed[k - 1])
                 for l, lobe in enumerate(self.material.lobes):
                     A[lobe.channel, k, rows[l]] = mags[l]
         return A
+
+    def _linear_scales(self, G: np.ndarray, b: np.ndarray, rows: list[int], channel: int) -> np.ndarray:
+        """One channel's scaling factors of the lobes on `rows`: NNLS, but a lobe that carries
+        its own magnitude (model.scaled False) keeps its scale and the others fit what it leaves."""
+        held = [l for l, lobe in enumerate(self.material.lobes) if not lobe.model.scaled]
+        if not held:
+            return _nnls(G[np.ix_(rows, rows)], b[rows])
+        out = np.empty(len(rows))
+        fixed = [rows[l] for l in held]
+        out[held] = [self.material.lobes[l].scale[channel] for l in held]
+        free = [l for l in range(len(rows)) if l not in held]
+        if free:
+            free_rows = [rows[l] for l in free]
+            out[free] = _nnls(G[np.ix_(free_rows, free_rows)], b[free_rows] - G[np.ix_(free_rows, fixed)] @ out[held])
+        return out
 
     def evaluate(self, u: np.ndarray, with_jacobian: bool = True):
         """Cost (sum of weighted squared residuals), JᵀJ, Jᵀr, named-metric error, scales."""
@@ -757,7 +779,12 @@ def material_from_lobes(names: list[str], combination: str, n_channels: int) -> 
         params = model.defaults()
         if n > 1 and len(model.starts) > 1:
             params.update(model.starts[round(j * (len(model.starts) - 1) / (n - 1))])
-        if combination == "Linear":
+        if not model.scaled:
+            if combination == "Fixed":
+                raise BRDFLabError(f"{model.name} carries its own colour and magnitude: it is fitted in a Linear "
+                                   "material, with its scaling factors held at 1")
+            lobes.append(Lobe(model, params, [1.0] * n_channels))
+        elif combination == "Linear":
             lobes.append(Lobe(model, params, [0.1] * n_channels))
         else:
             lobes.extend(Lobe(model, dict(params), [0.1], c) for c in range(n_channels))

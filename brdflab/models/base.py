@@ -19,6 +19,7 @@ from brdflab.geometry.vec import upper_hemisphere
 ParamValues = Mapping[str, "float | np.ndarray"]
 
 SPLIT_SUM_KINDS = ("diffuse", "mirror", "axis")
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 weights of linear RGB: a colour lobe's one value
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,12 @@ class LobeModel:
     # True for a lobe whose value is a colour (a BRDF Explorer file's vec3): `evaluate` gives
     # its luminance, `evaluate_rgb` the three values; see AnalyticMaterial for the channels
     colour: ClassVar[bool] = False
+    # False for a lobe whose own parameters carry its magnitude and colour (Principled's base
+    # colour): a fit holds its scaling factors at 1 instead of solving them
+    scaled: ClassVar[bool] = True
+    # True where the parameters are an artist's weights in [0, 1] (Principled): one that ends on
+    # a bound (no clear coat, a pure metal) is a choice the fit made, not a symptom
+    weights_on_bounds: ClassVar[bool] = False
     # where a model read from a file came from (None for a built-in)
     origin: ClassVar[object | None] = None
 

@@ -23,10 +23,9 @@ from typing import Mapping
 import numpy as np
 
 from brdflab.geometry.vec import rotate_about_z
-from brdflab.models.base import LobeModel, Parameter, SplitSum
+from brdflab.models.base import LUMINANCE, LobeModel, Parameter, SplitSum
 from brdflab.models.files.expression import Formula, direction_values
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 weights of linear RGB
 
 
 @dataclass(frozen=True)
