@@ -487,8 +487,9 @@ class MainWindow(QMainWindow):
     def set_workspace(self, workspace: Workspace) -> None:
         if self._thread is not None and workspace is not self._fit_owner:
             self._thread.cancel.set()  # the running fit belongs to the document being closed
-        if workspace is not self.workspace:
-            self._fit_history = []
+            self.fitting.status.setText("stopping the run of the closed document…")
+        if workspace is not self.workspace:  # nothing of the closed document stays drawn
+            self._fit_history, self._candidate = [], None
         self.workspace = workspace
         self.locate_button.setVisible(workspace.data_missing)
         self._unsaved_at_clean = workspace.dirty
@@ -1057,6 +1058,8 @@ class MainWindow(QMainWindow):
                                         "stopping: scoring the best parameters so far on every sample…")
 
     def _fit_progress(self, p: FitProgress) -> None:
+        if self._fit_owner is not self.workspace:
+            return  # a report of a fit of a closed document: no view draws it
         self._candidate = p.material
         self._fit_history.append((p.iteration, p.error))
         if not self._plot_timer.isActive():  # the convergence plot follows the fit, coalesced
@@ -1119,6 +1122,8 @@ class MainWindow(QMainWindow):
                            self._auto_progress, self._auto_finished, "starting Auto…")
 
     def _auto_progress(self, p: AutoProgress) -> None:
+        if self._fit_owner is not self.workspace:
+            return  # a report of a run of a closed document
         bar = self.fitting.progress
         bar.setRange(0, p.expected)
         bar.setValue(p.step)
