@@ -58,3 +58,64 @@ def test_every_view_follows_a_document_opened_while_a_fit_runs(window, qtbot, tm
     qtbot.waitUntil(lambda: window.object_view.samples_done >= 4, timeout=20000)
     assert window.object_view.renderer.source is ws.original()
     shot(window, "a_window_after_switch")
+
+
+def _mouse(widget, kind, x: int, buttons) -> None:
+    """A real mouse event at (x, middle) of `widget`, left button as given."""
+    from PySide6.QtCore import QPointF, Qt
+    from PySide6.QtGui import QMouseEvent
+    from PySide6.QtWidgets import QApplication
+
+    pos = QPointF(x, widget.height() / 2)
+    event = QMouseEvent(kind, pos, widget.mapToGlobal(pos), Qt.LeftButton, buttons, Qt.NoModifier)
+    QApplication.sendEvent(widget, event)
+
+
+def _ward_row(window, qtbot, name: str):
+    """The Material panel's row of a new Ward lobe's `name`, the lobe selected."""
+    window.editor.lobe_added.emit("Ward")
+    tree = window.editor.tree
+    tree.setCurrentItem(tree.topLevelItem(tree.topLevelItemCount() - 1))
+    row = window.editor._rows[("param", name)]
+    qtbot.waitUntil(row.isVisible, timeout=5000)
+    return row
+
+
+def test_a_slider_dragged_to_its_end_and_its_number_agree(window, qtbot):
+    from PySide6.QtCore import QEvent, Qt
+    from PySide6.QtWidgets import QStyle, QStyleOptionSlider
+
+    row = _ward_row(window, qtbot, "ax")
+    slider = row.slider
+    option = QStyleOptionSlider()
+    slider.initStyleOption(option)
+    handle = slider.style().subControlRect(QStyle.CC_Slider, option, QStyle.SC_SliderHandle, slider).center()
+    _mouse(slider, QEvent.MouseButtonPress, handle.x(), Qt.LeftButton)
+    for x in range(handle.x(), -20, -10):  # past the left end: the lower bound
+        _mouse(slider, QEvent.MouseMove, x, Qt.LeftButton)
+    assert slider.isSliderDown() and slider.value() == 0
+    lobe = window.workspace.analytic.lobes[-1]
+    assert lobe.params["ax"] == pytest.approx(0.001)
+    assert row.spin.value() == pytest.approx(0.001)  # during the drag
+    qtbot.waitUntil(lambda: "on its lower bound" in window.warnings.text(), timeout=5000)
+    _mouse(slider, QEvent.MouseButtonRelease, -20, Qt.NoButton)
+    qtbot.wait(100)
+    assert not slider.isSliderDown() and row.spin.value() == pytest.approx(0.001)  # and after it
+    shot(window.editor, "b_slider_at_bound")
+
+
+def test_enter_in_a_number_box_moves_its_slider(window, qtbot):
+    from PySide6.QtCore import Qt
+
+    row = _ward_row(window, qtbot, "ax")
+    before = row.slider.value()
+    window.activateWindow()
+    qtbot.waitUntil(window.isActiveWindow, timeout=5000)
+    qtbot.mouseClick(row.spin.lineEdit(), Qt.LeftButton)  # into the box, as a person types
+    qtbot.waitUntil(row.spin.hasFocus, timeout=5000)
+    row.spin.lineEdit().selectAll()
+    qtbot.keyClicks(row.spin.lineEdit(), "0.02")
+    qtbot.keyClick(row.spin.lineEdit(), Qt.Key_Return)
+    assert row.spin.hasFocus()  # Enter, not leaving the box
+    assert window.workspace.analytic.lobes[-1].params["ax"] == pytest.approx(0.02)
+    assert row.slider.value() == row._to_slider(0.02) != before

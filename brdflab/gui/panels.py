@@ -63,8 +63,21 @@ class ParameterRow(QWidget):
         lay.addWidget(self.spin, 1)
         lay.addWidget(self.slider, 2)
         self.set_value(value)
-        self.spin.valueChanged.connect(self.edited.emit)
-        self.slider.valueChanged.connect(lambda t: self.edited.emit(self._from_slider(t)))
+        self.spin.valueChanged.connect(self._typed)
+        self.slider.valueChanged.connect(self._slid)
+
+    def _typed(self, v: float) -> None:
+        """A value typed (Enter or leaving the box): the slider follows at once."""
+        with QSignalBlocker(self.slider):
+            self.slider.setValue(self._to_slider(v))
+        self.edited.emit(v)
+
+    def _slid(self, t: int) -> None:
+        """The slider moved: the box shows its value at once, during a drag too."""
+        v = self._from_slider(t)
+        with QSignalBlocker(self.spin):
+            self.spin.setValue(v)
+        self.edited.emit(v)
 
     def _span(self):
         c = max(1e-5 * (self.upper - self.lower), 1e-12)
