@@ -809,7 +809,6 @@ def draw_plots(request) -> np.ndarray:
     from matplotlib.ticker import MaxNLocator
 
     from brdflab.geometry.vec import spherical_to_cartesian
-    from brdflab.material.albedo import directional_albedo
 
     original, fitted, theta_i_deg, history, (width, height) = request
     compare = original is not None and fitted is not None
@@ -839,12 +838,9 @@ def draw_plots(request) -> np.ndarray:
         ax_polar.legend(fontsize=6, loc="upper left", bbox_to_anchor=(-0.35, 1.0), frameon=False)
 
     theta = np.radians(np.linspace(0, 85, 18))
-    views = spherical_to_cartesian(theta, 0.0)
     for src, label, style in pairs:
         if not isinstance(src, AnalyticMaterial) or src.lobes:
-            albedo = directional_albedo(src, views, samples_log2=9) if isinstance(src, AnalyticMaterial) \
-                else _sampled_albedo(src, views)
-            ax_albedo.plot(np.degrees(theta), _luminance(albedo), style, label=label)
+            ax_albedo.plot(np.degrees(theta), albedo_curve(src, theta), style, label=label)
     ax_albedo.axhline(1.0, color="grey", lw=0.8, ls=":")
     ax_albedo.set_xlabel("θo (°)", fontsize=7)
     ax_albedo.set_ylabel("albedo (luminance)", fontsize=7)
@@ -877,6 +873,18 @@ def draw_plots(request) -> np.ndarray:
     return np.asarray(canvas.buffer_rgba()).copy()
 
 
+def albedo_curve(source, theta: np.ndarray) -> np.ndarray:
+    """The plotted directional albedo (luminance) at view angles θo (radians, φo = 0):
+    importance-sampled for analytic materials, a half-vector quadrature for measured data."""
+    from brdflab.geometry.vec import spherical_to_cartesian
+    from brdflab.material.albedo import directional_albedo, half_vector_albedo
+
+    views = spherical_to_cartesian(theta, 0.0)
+    albedo = directional_albedo(source, views, samples_log2=9) if isinstance(source, AnalyticMaterial) \
+        else half_vector_albedo(source, views)
+    return _luminance(albedo)
+
+
 def _colorbar(figure, shown, ax, label: str) -> None:
     bar = figure.colorbar(shown, ax=ax)
     bar.set_label(label, fontsize=7)
@@ -895,20 +903,6 @@ def _convergence(ax, history: list) -> None:
     ax.set_ylabel("error", fontsize=7)
     ax.set_title("fit convergence", fontsize=8)
     ax.tick_params(labelsize=6)
-
-
-def _sampled_albedo(source, views: np.ndarray, n_log2: int = 12) -> np.ndarray:
-    """∫ f cos θi dωi of any source by cosine-weighted quasi-random directions (measured data)."""
-    from brdflab.geometry.sobol import scrambled_sobol
-
-    u = scrambled_sobol(n_log2, seed=7)
-    r, phi = np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
-    wi = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(0.0, 1 - r * r))], axis=1)
-    out = []
-    for v in views:
-        f = np.asarray(source.evaluate(wi, np.broadcast_to(v, wi.shape)))
-        out.append(np.pi * np.nanmean(f, axis=0))
-    return np.array(out)
 
 
 class XmlHighlighter(QSyntaxHighlighter):
