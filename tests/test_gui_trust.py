@@ -4,6 +4,7 @@ in a real window (Xvfb in CI), driven as a person would."""
 import os
 
 import pytest
+from conftest import DATA, needs_shared
 from test_gui import open_and_wait, window  # noqa: F401  (the fixture)
 
 pytestmark = pytest.mark.skipif(
@@ -119,3 +120,14 @@ def test_enter_in_a_number_box_moves_its_slider(window, qtbot):
     assert row.spin.hasFocus()  # Enter, not leaving the box
     assert window.workspace.analytic.lobes[-1].params["ax"] == pytest.approx(0.02)
     assert row.slider.value() == row._to_slider(0.02) != before
+
+
+@needs_shared("merl_slices", "chrome-steel.slice")
+def test_rings_of_measured_chrome_are_said_to_be_the_datas_bins(window, qtbot):
+    open_and_wait(qtbot, window, window.open_path, DATA / "merl_slices" / "chrome-steel.slice")
+    window.object_controls.mode.setCurrentText("fis")
+    qtbot.waitUntil(lambda: window.object_view.samples_done >= 64, timeout=60000)
+    assert "MERL's θh bins" in window.warnings.text() and window.warnings.isVisible()
+    shot(window, "d_chrome_window")
+    open_and_wait(qtbot, window, window.open_path, DATA / "merl_slices" / "pink-felt.slice")
+    assert "θh bins" not in window.warnings.text()  # a diffuse table has no rings to explain

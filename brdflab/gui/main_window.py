@@ -22,6 +22,7 @@ from brdflab.fitting.stored import fitting_of
 from brdflab.io.mesh import FORMATS as MESH_FORMATS
 from brdflab.io.mesh import default_mesh, load_mesh
 from brdflab.io.resources import data_dir
+from brdflab.sources.measured import MeasuredTable
 from brdflab.sources.proxy import proxy_lobes
 from brdflab.workspace import OPEN_FILTER, Workspace
 from brdflab.models.files.library import MissingModelFile
@@ -59,6 +60,7 @@ CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
 DEFAULT_MESH = "meshes/spot.obj"
 DEFAULT_ENV = "envmaps/venice_sunset_1k.hdr"
 MAX_RECENT = 8
+RING_STEP = 2.0  # a measured table whose neighbouring θh bins differ this much shows them as rings
 
 
 def _scrolling(widget: QWidget) -> QScrollArea:
@@ -497,8 +499,17 @@ class MainWindow(QMainWindow):
         self.material_changed()
         self.fittings_changed()
         self._show_own_ladder()
+        self._binning_note()
         for message in workspace.messages:
             self.statusBar().showMessage(message, 10000)
+
+    def _binning_note(self) -> None:
+        """Rings around a measured highlight are the data's θh bins: said over the views."""
+        source = self.workspace.original()
+        step = source.theta_h_step if isinstance(source, MeasuredTable) else 1.0
+        self.set_warning("bins", None if step < RING_STEP else
+                         f"{source.name}: the rings around its highlight are MERL's θh bins in the data (up to "
+                         f"{step:.1f}× from one bin to the next), not the renderer")
 
     def material_changed(self) -> None:
         ws = self.workspace
@@ -881,6 +892,7 @@ class MainWindow(QMainWindow):
         ws.guess = None
         self.material_changed()
         self.fittings_changed()
+        self._binning_note()
         for message in ws.messages:
             self.statusBar().showMessage(message, 10000)
 
@@ -1189,4 +1201,6 @@ def _open_with_proxy(path: Path) -> Workspace:
     workspace = Workspace.open(path)
     if workspace.source is not None:
         proxy_lobes(workspace.source)
+    if isinstance(workspace.source, MeasuredTable):
+        workspace.source.theta_h_step  # noqa: B018  (cached here, off the GUI thread)
     return workspace

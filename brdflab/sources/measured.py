@@ -7,6 +7,7 @@ import io
 import os
 import warnings
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -136,6 +137,21 @@ class MeasuredTable:
         values = np.repeat(self.values, N_PD, axis=3)
         valid = np.repeat(self.valid, N_PD, axis=2)
         return MeasuredTable(values, valid, self.name, "MERLBRDFDatabase", None, self.interpolation, dict(self.meta))
+
+    @cached_property
+    def theta_h_step(self) -> float:
+        """The largest brightness ratio between neighbouring θh bins (luminance of the first
+        three channels, θd below 80°, values above 1e-3 of the peak): how far MERL's θh
+        binning shows as rings around a highlight (MERL chrome: 3.0; a diffuse paint: 1.2)."""
+        weights = np.array([0.2126, 0.7152, 0.0722])[: self.n_channels]
+        lum = np.einsum("c...,c->...", self.values[: len(weights)], weights / weights.sum())[:, :80]
+        lum = np.where(self.valid[:, :80], lum, np.nan)
+        floor = 1e-3 * np.nanmax(lum) if np.isfinite(lum).any() else 0.0
+        if floor <= 0.0:
+            return 1.0
+        v = np.maximum(lum, floor)
+        ratio = np.fmax(v[1:] / v[:-1], v[:-1] / v[1:])
+        return float(np.nanmax(ratio)) if np.isfinite(ratio).any() else 1.0
 
 
 # --------------------------------------------------------------------------------------
