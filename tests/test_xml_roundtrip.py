@@ -366,6 +366,43 @@ def test_inserted_text_gets_the_files_indentation_and_line_ends(tmp_path):
     assert out.startswith(data[: data.rindex(b"</BRDF>")].rsplit(b"\t</Fitting>", 1)[0])
 
 
+# each: the file's bytes (its BOM, declaration and line ends), its BOM and its codec
+ENCODED = {
+    "UTF-8 with a BOM": (lambda s: b"\xef\xbb\xbf" + s.encode(), b"\xef\xbb\xbf", "utf-8"),
+    "UTF-16LE, a BOM, no declaration": (lambda s: b"\xff\xfe" + s.encode("utf-16-le"), b"\xff\xfe", "utf-16-le"),
+    "UTF-16BE, a BOM, declared UTF-16": (
+        lambda s: b"\xfe\xff" + ('<?xml version="1.0" encoding="UTF-16"?>\n' + s).encode("utf-16-be"), b"\xfe\xff",
+        "utf-16-be"),
+    "UTF-16BE, declared, no BOM": (
+        lambda s: ('<?xml version="1.0" encoding="UTF-16BE"?>\n' + s).encode("utf-16-be"), b"", "utf-16-be"),
+    "UTF-32LE with a BOM": (
+        lambda s: ('<?xml version="1.0" encoding="UTF-32"?>\n' + s).encode("utf-32"), b"\xff\xfe\x00\x00", "utf-32-le"),
+    "UTF-32BE with a BOM": (
+        lambda s: b"\x00\x00\xfe\xff" + ('<?xml version="1.0" encoding="UTF-32"?>\n' + s).encode("utf-32-be"),
+        b"\x00\x00\xfe\xff", "utf-32-be"),
+    "CR line ends (classic Mac)": (lambda s: s.replace("\n", "\r").encode(), b"", "utf-8"),
+}
+
+
+@pytest.mark.parametrize("namespaced", [False, True], ids=["mapped", "written by lxml"])
+@pytest.mark.parametrize("name", sorted(ENCODED))
+def test_a_save_keeps_the_files_encoding_bom_and_line_ends(name, namespaced, tmp_path):
+    """A new <Fitting> in a UTF-16/32 file (either byte order, with or without a BOM or a
+    declaration), a UTF-8 file with a BOM or a CR-only file: the save keeps the BOM, the
+    encoding and the line ends, and the lab reads its own file back (it wrote UTF-16BE and
+    UTF-32 files it could not read, and UTF-8 for a UTF-16LE file, without the BOM)."""
+    make, bom, codec = ENCODED[name]
+    text = BASE.replace("<BRDF>", '<BRDF xmlns:x="urn:x">\n <x:Extra x:a="1"/>') if namespaced else BASE
+    doc = xmlio.parse_bytes(make(text))
+    doc.fittings.append(xmlio.Fitting(doc.fittings[0].material.copy(), 0.5))
+    out = saved(doc, tmp_path)
+    assert out.startswith(bom) and '<Fitting error="0.5"' in out[len(bom):].decode(codec)
+    again = xmlio.load(tmp_path / "saved.xml")
+    assert len(again.fittings) == 2 and again.fittings[1].error == 0.5
+    if name.startswith("CR "):
+        assert b"\n" not in out and out.count(b"\r") > text.count("\n")
+
+
 def test_removing_and_moving_lobes_keeps_everything_else(tmp_path):
     from brdflab.workspace import with_lobe_moved, with_lobe_removed
 

@@ -6,10 +6,13 @@ did not change is copied from the original text (its quotes, character reference
 number spellings, comments, declaration and DOCTYPE line), and only what changed is
 spelled anew. A file the map cannot follow (namespaces, an encoding that does not
 survive a round trip) is written by lxml instead: the same content, not the same bytes.
+Either way the file keeps its encoding, its byte-order mark and its line ends, so that
+the lab reads its own save back.
 """
 
 from __future__ import annotations
 
+import codecs
 import copy
 import re
 from dataclasses import dataclass, field
@@ -27,6 +30,11 @@ _TOKEN = re.compile(r"""
 """, re.S | re.X)
 _ATTR = re.compile(r"""(\s+)([^\s=/>]+)(\s*=\s*)(["'])(.*?)\4""", re.S)
 _TAG_CLOSE = re.compile(r"\s*/?>\Z")
+# byte-order marks, UTF-32 before UTF-16 (FF FE 00 00 starts with FF FE), and the codec each
+# fixes: a BOM outranks what the parser reports (libxml2 says UTF-8 for a UTF-16LE file with
+# a BOM and no declaration, and "UTF-16" for either byte order)
+_BOMS = ((codecs.BOM_UTF32_LE, "utf-32-le"), (codecs.BOM_UTF32_BE, "utf-32-be"), (codecs.BOM_UTF8, "utf-8"),
+         (codecs.BOM_UTF16_LE, "utf-16-le"), (codecs.BOM_UTF16_BE, "utf-16-be"))
 
 
 @dataclass
@@ -57,8 +65,10 @@ class SourceXML:
 
     def __init__(self, data: bytes, root: etree._Element) -> None:
         self.root = root  # the parsed tree; never modified
-        self.encoding = root.getroottree().docinfo.encoding or "UTF-8"
-        self._data: bytes | None = data
+        self.encoding = root.getroottree().docinfo.encoding or "UTF-8"  # as the declaration names it
+        self.bom, self.codec = next(((bom, codec) for bom, codec in _BOMS if data.startswith(bom)),
+                                    (b"", _byte_order_free(self.encoding, data)))
+        self._data: bytes | None = data[len(self.bom):]
         self.text = ""
         self._spans: list[_Span] | None = None
         self.prolog_end = self.epilogue_start = 0
@@ -69,8 +79,8 @@ class SourceXML:
         if self._data is not None:
             data, self._data = self._data, None
             try:
-                self.text = data.decode(self.encoding)
-                if self.text.encode(self.encoding) != data:
+                self.text = data.decode(self.codec)
+                if self.text.encode(self.codec) != data:
                     raise _Unmappable("the encoding does not round-trip")
                 self._spans, self.prolog_end, self.epilogue_start = _map(self.text, self.root)
             except (_Unmappable, LookupError, UnicodeError):
@@ -84,6 +94,24 @@ class SourceXML:
     def draft(self, doctype: str | None) -> "Draft":
         return Draft(self, doctype)
 
+    def encode(self, text: str) -> bytes:
+        """`text` as this file's bytes: its BOM, then its encoding (characters it cannot
+        hold as character references)."""
+        return self.bom + text.encode(self.codec, "xmlcharrefreplace")
+
+    def decode(self, data: bytes) -> str:
+        """The text of bytes written by `encode`."""
+        return data[len(self.bom):].decode(self.codec) if data.startswith(self.bom) else data.decode(self.codec)
+
+
+def _byte_order_free(encoding: str, data: bytes) -> str:
+    """The codec for a file without a BOM: a bare "UTF-16"/"UTF-32" would write Python's own BOM
+    and byte order, so the byte order is the one the file's first character ('<') shows."""
+    width = {"UTF-16": 2, "UTF-32": 4}.get(encoding.upper().replace("_", "-"))
+    if width is None:
+        return encoding
+    return f"utf-{8 * width}-{'le' if data[:1] == b'<' else 'be'}"
+
 
 class Draft:
     """A copy of a source's tree to patch, which writes back unchanged parts verbatim."""
@@ -95,9 +123,10 @@ class Draft:
         pairs = list(zip(source.root.iter(), self.root.iter()))
         self._working = dict(pairs)  # original node -> its copy here
         self._index = {w: i for i, (_, w) in enumerate(pairs)}  # copy -> its span
-        # new text gets the file's line ends (the parser reads CR LF as LF)
-        self._newline = "\r\n" if source.mappable and "\r\n" in source.text else "\n"
-        self._spans = source.spans
+        self._spans = source.spans  # the first call decodes and maps the text
+        # new text gets the file's line ends (the parser reads CR LF and CR as LF)
+        text = source.text
+        self._newline = "\r\n" if "\r\n" in text else "\r" if "\r" in text else "\n"
 
     def own(self, original: etree._Element | None) -> etree._Element | None:
         """The copy in this draft of a node of the source tree (None for other nodes)."""
@@ -116,9 +145,11 @@ class Draft:
                 pass
             else:
                 out.append(src.text[src.epilogue_start:])
-                return "".join(out).encode(src.encoding, "xmlcharrefreplace")
-        doctype = f"<!DOCTYPE {self.doctype}>" if self.doctype else None
-        return etree.tostring(self.root, xml_declaration=True, encoding=src.encoding, doctype=doctype) + b"\n"
+                return src.encode("".join(out))
+        doctype = f"<!DOCTYPE {self.doctype}>\n" if self.doctype else ""
+        declared = src.encoding if not src.bom else src.codec.upper()[:6].rstrip("-")  # UTF-8, UTF-16, UTF-32
+        text = f"<?xml version='1.0' encoding='{declared}'?>\n{doctype}" + etree.tostring(self.root, encoding=str) + "\n"
+        return src.encode(text.replace("\n", self._newline))
 
     # --- writing -----------------------------------------------------------------------
     def _span(self, node) -> _Span | None:

@@ -641,7 +641,7 @@ def to_bytes(doc: BRDFDocument) -> bytes:
 
 def to_text(doc: BRDFDocument) -> str:
     """The file text of `doc` as a string (decoded from the encoding it is written in)."""
-    return to_bytes(doc).decode(doc.source.encoding if doc.source is not None else "UTF-8")
+    return doc.source.decode(to_bytes(doc)) if doc.source is not None else to_bytes(doc).decode("UTF-8")
 
 
 def save(doc: BRDFDocument, path: str | os.PathLike) -> None:
