@@ -3,6 +3,7 @@ in a real window (Xvfb in CI), driven as a person would."""
 
 import os
 
+import numpy as np
 import pytest
 from conftest import DATA, needs_shared
 from test_gui import open_and_wait, window  # noqa: F401  (the fixture)
@@ -131,3 +132,30 @@ def test_rings_of_measured_chrome_are_said_to_be_the_datas_bins(window, qtbot):
     shot(window, "d_chrome_window")
     open_and_wait(qtbot, window, window.open_path, DATA / "merl_slices" / "pink-felt.slice")
     assert "θh bins" not in window.warnings.text()  # a diffuse table has no rings to explain
+
+
+def test_a_narrow_lobe_is_drawn_whole_and_framed(window, qtbot):
+    from brdflab.geometry.lobe_surface import lobe_radii
+    from brdflab.geometry.vec import spherical_to_cartesian
+
+    row = _ward_row(window, qtbot, "ax")
+    row.slider.setValue(0)  # ax = 0.001, the models' lower bound
+    viewer = window.lobe_view.viewer
+    material = window.workspace.analytic
+    assert material.lobes[-1].params["ax"] == pytest.approx(0.001)
+    wi = spherical_to_cartesian(np.radians(30.0), 0.0)
+    peak = float(lobe_radii(material, viewer.settings.shape, np.array([[-wi[0], -wi[1], wi[2]]]))[0])
+    # framed by its true peak (at the mirror direction, between the hemisphere's vertices)
+    qtbot.waitUntil(lambda: abs(viewer.gain() * peak - 1.0) < 1e-3, timeout=60000)
+    qtbot.wait(300)
+    img = window.lobe_view.grabFramebuffer()
+    shot(window.lobe_view, "c_narrow_ward_lobe")
+    # the spike is drawn whole: its tip, at radius 1 along the mirror direction, is on screen and lit
+    w, h = window.lobe_view.pixel_size()
+    mvp = viewer.view_projection(w, h)
+    tip = mvp @ np.array([-wi[0] * 0.97, -wi[1] * 0.97, wi[2] * 0.97, 1.0])
+    x, y = (tip[0] / tip[3] + 1) / 2 * w, (1 - tip[1] / tip[3]) / 2 * h
+    assert 0 <= x < w and 0 <= y < h
+    rgb = np.frombuffer(img.convertToFormat(img.Format.Format_RGB32).constBits(), np.uint8).reshape(h, w, 4)[..., :3]
+    near = rgb[int(y) - 3: int(y) + 4, int(x) - 3: int(x) + 4].reshape(-1, 3).astype(int)
+    assert (np.abs(near - [36, 31, 31]).max(axis=1) > 40).any()  # not the background

@@ -95,3 +95,22 @@ def test_sharing_a_context_with_the_object_view(viewer):
     img = viewer.render(120, 120)
     background = np.array([0.12, 0.12, 0.14]) * 255
     assert (np.abs(img - background).max(axis=2) > 10).sum() > 200
+
+
+def test_a_surface_refined_near_a_narrow_peak_finds_it_and_stays_closed():
+    """Ward ax = 0.001 peaks between level 5's vertices (the uniform surface reaches a third of
+    its peak); the refined surface has the peak as a vertex, every edge in at most two faces."""
+    from brdflab.geometry import lobe_surface as surface
+    from brdflab.geometry.vec import spherical_to_cartesian
+
+    ward = AnalyticMaterial("w", "Linear", 3, [Lobe.create("Ward", [0.5] * 3, ax=0.001, ay=0.1)])
+    wi = spherical_to_cartesian(np.radians(30.0), 0.0)
+    shape = surface.LobeShape(tuple(float(x) for x in wi))
+    peak = surface.lobe_radii(ward, shape, np.array([[-wi[0], -wi[1], wi[2]]]))[0]
+    uniform = surface.lobe_radii(ward, shape, geodesic_hemisphere(5)[0].astype(float)).max()
+    dirs, faces, found = surface.refined_surface([ward], shape, 5)
+    assert uniform < 0.5 * peak and found == pytest.approx(peak, rel=1e-6)
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    assert np.unique(edges, axis=0, return_counts=True)[1].max() == 2  # conforming: no cracks
+    assert np.all(dirs[:, 2] > 0) and np.allclose(np.linalg.norm(dirs, axis=1), 1, atol=1e-6)
+    assert surface.surface_error(ward, shape, 7)[0] > 0.3  # even level 7 misses it: refinement is needed

@@ -36,7 +36,8 @@ from brdflab.gui.auto_lighting import chosen, choose_job
 from brdflab.gui.background import AutoFitProcess, FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
 from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
-                                MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries)
+                                MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries,
+                                refine_job)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
 from brdflab.gui.panels import sh_table_request
 from brdflab.models import get_model
@@ -225,6 +226,10 @@ class MainWindow(QMainWindow):
         self._auto_level_job = LatestOnly(auto_level_job, self)
         self._auto_level_job.done.connect(self._auto_level_known)
         self._auto_level_job.failed.connect(lambda m: self.lobe_controls.auto_level_note.setText(f"failed: {m}"))
+        self._refine_for: tuple | None = None  # (key, sources) the refined lobe surface was last asked for
+        self._refine_job = LatestOnly(refine_job, self)
+        self._refine_job.done.connect(self._refined_known)
+        self._refine_job.failed.connect(self.show_error)
         self._auto_lighting_for: tuple | None = None  # (source, map, tolerance) the last choice was asked for
         self._auto_lighting_token = 0  # numbers the requests: an answer to an older one is dropped
         self._auto_choice = None  # the lighting.auto.LightingChoice the object view draws with
@@ -660,6 +665,7 @@ class MainWindow(QMainWindow):
 
         self.lobe_view.when_ready(apply)
         self._request_auto_level()
+        self._request_refined_surface()
 
     def _push_object_source(self) -> None:
         shown = self.workspace.original()
@@ -692,6 +698,22 @@ class MainWindow(QMainWindow):
         self.lobe_view.update()
         self._plot_timer.start()
         self._request_auto_level()
+        self._request_refined_surface()
+
+    def _request_refined_surface(self) -> None:
+        """The lobe viewer's surface refined near the analytic lobes' peaks, in a worker process
+        (the newest request wins); the uniform hemisphere is drawn meanwhile."""
+        def ask() -> None:
+            viewer = self.lobe_view.viewer
+            key, sources = viewer.surface_key(), viewer.analytic_sources()
+            if sources and (self._refine_for is None or key != self._refine_for[0]):
+                self._refine_for = (key, sources)  # held: the ids in the key stay theirs
+                self._refine_job.request((key, sources, viewer.settings.shape, viewer.settings.level))
+
+        self.lobe_view.when_ready(ask)
+
+    def _refined_known(self, result: tuple) -> None:
+        self.lobe_view.when_ready(lambda: self.lobe_view.viewer.set_refined(*result))
 
     def _request_auto_level(self) -> None:
         """Auto subdivision: recompute the level when what is drawn changes (not when the
@@ -993,6 +1015,7 @@ class MainWindow(QMainWindow):
         self.charts.shutdown()
         self._fits_energy_job.shutdown()
         self._auto_level_job.shutdown()
+        self._refine_job.shutdown()
         self._auto_lighting_job.shutdown()
         self.object_view.shutdown()
         self.settings.setValue("geometry", self.saveGeometry())

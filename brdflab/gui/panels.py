@@ -336,6 +336,15 @@ def auto_level_job(job: tuple) -> tuple[int, float]:
     return auto_level(sources, shape, tolerance)
 
 
+def refine_job(job: tuple) -> tuple:
+    """(key, sources, shape, level) → (key, *geometry.lobe_surface.refined_surface) — run in a
+    worker process."""
+    from brdflab.geometry.lobe_surface import refined_surface
+
+    key, sources, shape, level = job
+    return (key, *refined_surface(sources, shape, level, AUTO_LEVEL_TOLERANCE))
+
+
 def _side_by_side(*widgets: QWidget) -> QHBoxLayout:
     row = QHBoxLayout()
     for w in widgets:

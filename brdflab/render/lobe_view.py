@@ -62,8 +62,9 @@ class LobeViewer:
         self.camera = OrbitCamera(yaw=35.0, pitch=25.0, distance=3.7)  # a radius-1 lobe fits whole
         self._programs: dict[tuple, moderngl.Program] = {}
         self._layers: list[_Layer | None] = [None, None]
-        self._mesh_level = None
+        self._mesh_level = None  # what the buffers hold: a level, or a refined surface's key
         self._vbo = self._ibo = None
+        self._refined: tuple | None = None  # (key, directions, faces, peak) from refined_surface
         self._lines = self.ctx.program(vertex_shader=GLSL_VERSION + "#define VERTEX\n" + shader_source("lines.glsl"),
                                        fragment_shader=GLSL_VERSION + shader_source("lines.glsl"))
         self._line_vbo = self.ctx.buffer(reserve=12 * 6 * 4)
@@ -138,8 +139,25 @@ class LobeViewer:
         layer.texture_wi = wi
 
     # --- drawing --------------------------------------------------------------------------
+    def surface_key(self) -> tuple:
+        """What a refined surface is computed for: the analytic layers drawn, the shape, the level."""
+        return tuple(id(s) for s in self.analytic_sources()), self.settings.shape, self.settings.level
+
+    def analytic_sources(self) -> list[AnalyticMaterial]:
+        return [l.source for l in self._layers if l is not None and isinstance(l.source, AnalyticMaterial)]
+
+    def set_refined(self, key: tuple, directions: np.ndarray, faces: np.ndarray, peak: float) -> None:
+        """A surface refined near the lobes' peaks (geometry.lobe_surface.refined_surface), drawn
+        while `key` is what is drawn; the uniform hemisphere otherwise."""
+        self._refined = (key, directions, faces, peak)
+
+    def refined_in_use(self) -> bool:
+        return self._refined is not None and self._refined[0] == self.surface_key()
+
     def _mesh(self) -> tuple[moderngl.Buffer, moderngl.Buffer]:
-        if self._mesh_level != self.settings.level:
+        refined = self.refined_in_use()
+        wanted = self._refined[0] if refined else self.settings.level
+        if self._mesh_level != wanted:
             for layer in self._layers:
                 if layer is not None:
                     for vao in layer.vaos.values():
@@ -148,13 +166,13 @@ class LobeViewer:
             for b in (self._vbo, self._ibo):
                 if b is not None:
                     b.release()
-            v, f = geodesic_hemisphere(self.settings.level)
+            v, f = self._refined[1:3] if refined else geodesic_hemisphere(self.settings.level)
             self._vbo, self._ibo = self.ctx.buffer(v.tobytes()), self.ctx.buffer(f.tobytes())
-            self._mesh_level = self.settings.level
+            self._mesh_level = wanted
         return self._vbo, self._ibo
 
     def triangle_count(self) -> int:
-        return len(geodesic_hemisphere(self.settings.level)[1])
+        return len(self._refined[2]) if self.refined_in_use() else len(geodesic_hemisphere(self.settings.level)[1])
 
     def draw(self, width: int, height: int) -> None:
         """Draw into the bound framebuffer (depth test on, caller clears)."""
@@ -203,6 +221,8 @@ class LobeViewer:
                     r = lobe_radii(layer.source, self.settings.shape, geodesic_hemisphere(key[1])[0].astype(float))
                     layer.peak = (key, float(np.nanmax(r)) if r.size else 0.0)
                 peak = max(peak, layer.peak[1])
+        if self.refined_in_use():  # a peak between the hemisphere's vertices: framed whole
+            peak = max(peak, self._refined[3])
         return 1.0 / peak if peak > 0 else 1.0
 
     def _eye(self) -> np.ndarray:
