@@ -159,3 +159,23 @@ def test_a_narrow_lobe_is_drawn_whole_and_framed(window, qtbot):
     rgb = np.frombuffer(img.convertToFormat(img.Format.Format_RGB32).constBits(), np.uint8).reshape(h, w, 4)[..., :3]
     near = rgb[int(y) - 3: int(y) + 4, int(x) - 3: int(x) + 4].reshape(-1, 3).astype(int)
     assert (np.abs(near - [36, 31, 31]).max(axis=1) > 40).any()  # not the background
+
+
+def test_clicking_fit_moves_no_control_and_stop_stays_under_the_mouse(window, qtbot, tmp_path):
+    from PySide6.QtCore import QPoint, Qt
+
+    open_and_wait(qtbot, window, window.open_path, _measured(tmp_path, "first", 0.2))
+    window.activateWindow()
+    qtbot.waitUntil(window.isActiveWindow, timeout=5000)
+    f = window.fitting
+    f.sample_kind.setCurrentText("all")
+    stop_at = f.stop_button.mapTo(window, QPoint(0, 0))
+    qtbot.mouseClick(f.fit_button, Qt.LeftButton)
+    qtbot.waitUntil(lambda: f.stop_button.isEnabled(), timeout=5000)
+    qtbot.wait(100)
+    shot(window, "e_fitting_running")
+    assert f.stop_button.mapTo(window, QPoint(0, 0)) == stop_at  # a click at its old place stops the fit
+    assert not f.tolerance.hasFocus()
+    qtbot.mouseClick(f.stop_button, Qt.LeftButton)
+    qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
+    assert f.fit_button.mapTo(window, QPoint(0, 0)).y() == stop_at.y()

@@ -644,6 +644,9 @@ class FittingPanel(QWidget):
         self.refit_button, self.promote_button = QPushButton("Fit again from this"), QPushButton("Make main material")
         self.progress = QProgressBar()
         self.progress.setRange(0, 0)
+        keep = self.progress.sizePolicy()
+        keep.setRetainSizeWhenHidden(True)  # showing it moves nothing
+        self.progress.setSizePolicy(keep)
         self.progress.setVisible(False)
         self.status = QLabel("")
         self.status.setWordWrap(True)  # a long status must not widen the dock
@@ -712,9 +715,16 @@ class FittingPanel(QWidget):
                 self.fits.setCurrentRow(shown)
 
     def set_running(self, running: bool) -> None:
-        self.fit_button.setEnabled(not running)
-        self.auto_button.setEnabled(not running)
-        self.stop_button.setEnabled(running)
+        """Fit and Auto, or Stop. The focus goes from the button clicked to the one enabled
+        (disabling a focused button handed it down the panel, which scrolled to it)."""
+        starts, stop = (self.fit_button, self.auto_button), self.stop_button
+        enabled, disabled = ((stop,), starts) if running else (starts, (stop,))
+        for button in enabled:
+            button.setEnabled(True)
+        if any(b.hasFocus() for b in disabled):
+            enabled[0].setFocus(Qt.OtherFocusReason)
+        for button in disabled:
+            button.setEnabled(False)
         self.progress.setVisible(running)
         self.progress.setRange(0, 0)  # busy until a run reports how far it is
         self.progress.setFormat("%p%")
