@@ -179,3 +179,19 @@ def test_clicking_fit_moves_no_control_and_stop_stays_under_the_mouse(window, qt
     qtbot.mouseClick(f.stop_button, Qt.LeftButton)
     qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
     assert f.fit_button.mapTo(window, QPoint(0, 0)).y() == stop_at.y()
+
+
+def test_lobe_buttons_stay_put_whichever_lobe_is_selected(window, qtbot):
+    from PySide6.QtCore import QPoint
+
+    window.resize(1366, 740)  # a 1366 × 768 laptop's free area
+    qtbot.waitUntil(lambda: window.height() == 740, timeout=5000)
+    tree = window.editor.tree
+    buttons = [b for b in window.editor.findChildren(type(window.fitting.fit_button)) if b.text() in ("Add", "Up")]
+    places = []
+    for k in (0, 1, 0):  # the Lambertian (3 rows), LafortuneIso (6 rows), back
+        tree.setCurrentItem(tree.topLevelItem(k))
+        qtbot.wait(50)
+        places.append([b.mapTo(window, QPoint(0, 0)) for b in buttons])
+    assert places[0] == places[1] == places[2]
+    shot(window, "e_laptop_material")

@@ -166,11 +166,15 @@ class MaterialEditor(QWidget):
         for column, w in enumerate((remove, up, down)):
             buttons.addWidget(w, 1, column)
         buttons.addWidget(from_file, 2, 0, 1, 3)
+        # the buttons above the lobes, the lobes a few rows high: nothing above the parameters
+        # changes height with the selected lobe, and a laptop's short dock shows its parameters
+        self.tree.setMaximumHeight(self.tree.sizeHintForRow(0) * 5 + self.tree.header().sizeHint().height() + 8
+                                   if self.tree.sizeHintForRow(0) > 0 else 6 * self.fontMetrics().height() + 8)
         lay = QVBoxLayout(self)
         lay.addLayout(top)
-        lay.addWidget(self.tree, 2)
         lay.addLayout(buttons)
-        lay.addWidget(params_box, 3)
+        lay.addWidget(self.tree)
+        lay.addWidget(params_box, 1)
         lay.addWidget(self.energy)
 
     def refresh_models(self, select: str | None = None) -> None:
