@@ -27,6 +27,7 @@ class EnvironmentMap:
     name: str = "environment"
     path: Path | None = None
     note: str = ""  # a doubt about the file's layout, for the user to see
+    layout: str = "latlong"  # how the file was read (a probe is resampled to lat-long)
 
     @property
     def width(self) -> int:
@@ -232,15 +233,37 @@ def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
             raise BRDFLabError(f"cannot write OpenEXR: {str(e).splitlines()[0] if str(e) else 'failed'}", path) from None
 
 
-def load_environment(path: str | os.PathLike, layout: str = "auto") -> EnvironmentMap:
+def load_environment(path: str | os.PathLike, layout: str = "auto",
+                     back: str | os.PathLike | None = None) -> EnvironmentMap:
     """An environment map from .hdr or .exr, checked for size and finite values.
 
-    `layout`: latlong, angular (a light probe's disk), dual-paraboloid (front | back
-    halves), or auto (a square image with a dark disk surround is angular); probes are
-    resampled to lat-long (brdflab/lighting/probes.py)."""
-    from brdflab.lighting.probes import LAYOUTS, detect_layout, probe_to_latlong
+    `layout`: latlong, angular (a light probe's disk), dual-paraboloid (a front and a back
+    half), or auto (a square image whose disk has a dark surround is angular; a half named
+    NAME-front / NAME-back whose other half exists is dual-paraboloid). A pair is `path`
+    (front) and `back`, the halves found by name, or one image holding front | back.
+    Probes are resampled to lat-long (brdflab/lighting/probes.py)."""
+    from brdflab.lighting import probes
 
     path = Path(path)
+    if layout not in probes.LAYOUTS:
+        raise BRDFLabError(f"unknown map layout {layout!r}; one of {', '.join(probes.LAYOUTS)}", path)
+    if back is not None and layout not in ("auto", "dual-paraboloid"):
+        raise BRDFLabError(f"a second half is only for a dual-paraboloid pair, not a {layout} map", back)
+    data = read_map(path)
+    pair = probes.pair_path(path) if back is None and data.shape[0] == data.shape[1] else None
+    if layout == "auto":
+        layout = "dual-paraboloid" if back is not None or pair else probes.detect_layout(data)
+    if layout == "dual-paraboloid" and back is None and pair:
+        data = data if pair[0] == path else read_map(pair[0])
+        path, back = pair
+    if layout != "latlong":
+        back_data = None if back is None else read_map(Path(back))
+        data = probes.probe_to_latlong(data, layout, path, back_data, back)
+    return EnvironmentMap(data, path.stem, path, latlong_doubt(data.shape), layout)
+
+
+def read_map(path: Path) -> np.ndarray:
+    """The texels of an .hdr or .exr file, checked for size and finite values, negatives clamped."""
     ext = path.suffix.lower()
     checked_size(path, MAX_MAP_BYTES, "an environment map")  # a FIFO or /dev/zero would never end
     if ext in (".hdr", ".pic", ".rgbe"):
@@ -254,15 +277,7 @@ def load_environment(path: str | os.PathLike, layout: str = "auto") -> Environme
     bad = ~np.isfinite(data)
     if bad.any():
         raise BRDFLabError(f"{int(bad.sum())} texel values are NaN or Inf", path)
-    if (data < 0).any():
-        data = np.maximum(data, 0.0)
-    if layout not in LAYOUTS:
-        raise BRDFLabError(f"unknown map layout {layout!r}; one of {', '.join(LAYOUTS)}", path)
-    if layout == "auto":
-        layout = detect_layout(data)
-    if layout != "latlong":
-        data = probe_to_latlong(data, layout, path)
-    return EnvironmentMap(data, path.stem, path, latlong_doubt(data.shape))
+    return np.maximum(data, 0.0) if (data < 0).any() else data
 
 
 def latlong_doubt(shape: tuple) -> str:
@@ -271,4 +286,5 @@ def latlong_doubt(shape: tuple) -> str:
     if abs(w / h - 2.0) <= 0.02 * 2.0:
         return ""
     return (f"{w}×{h} texels is not the 2:1 shape of a lat-long map (a cross or a probe?): it is shown "
-            "stretched; convert it, or open an angular or dual-paraboloid probe with its layout")
+            "stretched; convert it, or open an angular or dual-paraboloid probe with its layout "
+            "(the object view's map layout, or --env-layout)")
