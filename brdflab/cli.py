@@ -378,7 +378,9 @@ def cmd_render(args: argparse.Namespace) -> int:
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
     if args.mode in ("fis", "sh", "prefiltered", "mis", "auto"):
         env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
-        renderer.set_environment(load_environment(env_path, args.env_layout))
+        if args.env_back and not args.env:
+            raise BRDFLabError("--env-back names the back half of the dual-paraboloid pair given by --env")
+        renderer.set_environment(load_environment(env_path, args.env_layout, args.env_back))
     auto = _resolve_auto(args, source, renderer) if args.mode == "auto" else None
     settings = RenderSettings(mode=args.mode, width=width, height=height, samples=args.samples, light=light,
                               env_rotation=args.env_rotation, reference_view=args.view == "reference")
@@ -672,7 +674,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")
     p.add_argument("--env", help="environment map (.hdr or .exr); default: the shipped CC0 map")
     p.add_argument("--env-layout", choices=["auto", "latlong", "angular", "dual-paraboloid"], default="auto",
-                   help="light-probe layout of --env; auto: a square image with a disk is an angular map")
+                   help="light-probe layout of --env; auto: a square image with a disk is an angular map, a "
+                        "square NAME-front or NAME-back beside its other half a dual-paraboloid pair")
+    p.add_argument("--env-back", help="the back half of a dual-paraboloid pair whose front half is --env (default: "
+                                      "the file named like --env with front and back swapped)")
     p.add_argument("--env-rotation", type=finite_float, default=0.0, help="degrees about +Y")
     p.add_argument("--light", default="0,0,1", help="direction towards the light, X,Y,Z (world)")
     p.add_argument("--samples", type=int_in(1, MAX_RENDER_SAMPLES), default=64,

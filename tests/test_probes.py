@@ -234,3 +234,24 @@ def test_a_lone_half_or_mismatched_pair_is_one_line(tmp_path):
     assert str(PROBES / "beach_probe.hdr") in str(e.value)
     with pytest.raises(BRDFLabError, match="only for a dual-paraboloid"):
         load_environment(lone, "angular", back=PROBES / "beach-back.hdr")
+
+
+@needs_shared("envmaps", "probes", "beach-front.hdr")
+def test_command_line_opens_a_pair(tmp_path, capsys):
+    """`render --env NAME-front.hdr` finds the back half by name; `--env-back` names it; a
+    half without its other half is one line naming the file, exit 2."""
+    from brdflab.cli import main
+    from brdflab.lighting.envmap import read_exr
+
+    lone = tmp_path / "lone-front.hdr"
+    lone.write_bytes((PROBES / "beach-front.hdr").read_bytes())
+    common = ["render", "example:fig2", "--mode", "prefiltered", "--view", "reference", "--size", "16,16"]
+    runs = {"named": ["--env", str(PROBES / "beach-front.hdr")],
+            "explicit": ["--env", str(lone), "--env-back", str(PROBES / "beach-back.hdr")]}
+    for name, env in runs.items():
+        assert main([*common, *env, "--out", str(tmp_path / f"{name}.exr")]) == 0, capsys.readouterr().err
+    assert np.array_equal(read_exr(tmp_path / "named.exr"), read_exr(tmp_path / "explicit.exr"))
+    capsys.readouterr()
+    code = main([*common, "--env", str(lone), "--env-layout", "dual-paraboloid", "--out", str(tmp_path / "x.exr")])
+    err = capsys.readouterr().err
+    assert code == 2 and str(lone) in err and "no other half" in err and len(err.strip().splitlines()) == 1
