@@ -354,7 +354,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     from brdflab.io.mesh import default_mesh, load_mesh
     from brdflab.render.context import create_context
     from brdflab.render.object_view import ObjectRenderer, RenderSettings
-    from brdflab.io.resources import data_dir
+    from brdflab.io.resources import default_environment_path
     from brdflab.sources.files import load_source
     from brdflab.lighting.tonemap import write_png
     from brdflab.io.atomic import check_writable
@@ -377,7 +377,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.view != "reference":
         renderer.set_mesh(default_mesh() if args.mesh == "sphere" else load_mesh(args.mesh))
     if args.mode in ("fis", "sh", "prefiltered", "mis", "auto"):
-        env_path = Path(args.env) if args.env else data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
+        env_path = Path(args.env) if args.env else default_environment_path()
         if args.env_back and not args.env:
             raise BRDFLabError("--env-back names the back half of the dual-paraboloid pair given by --env")
         renderer.set_environment(load_environment(env_path, args.env_layout, args.env_back))
@@ -519,11 +519,19 @@ def cmd_export(args: argparse.Namespace) -> int:
     out = Path(args.out)
     check_writable(out)
     source = load_source(Path(args.source), fitting=args.fitting)
+    env = None
+    if args.env:
+        from brdflab.lighting.envmap import load_environment
+
+        env = load_environment(Path(args.env), args.env_layout)
     try:
-        export_source(source, args.format, out, origin=Path(args.source))
+        warnings = export_source(source, args.format, out, origin=Path(args.source), env=env)
     except OSError as e:
         raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
-    _emit(args, {"out": str(out), "format": args.format}, f"wrote {args.format} export to {out}")
+    warn = _warner(args)
+    for line in warnings:
+        warn(line)
+    _emit(args, {"out": str(out), "format": args.format, "warnings": warnings}, f"wrote {args.format} export to {out}")
     return 0
 
 
@@ -714,8 +722,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _add(sub, "export", "write a material or stored fit for other tools")
     p.add_argument("source", type=material_path, help="XML material, measured data file, a model file (.brdf, model descriptor: one lobe at its defaults) or example:NAME")
-    p.add_argument("--format", choices=["merl", "brdf-explorer", "glsl"], required=True,
-                   help="merl: a MERL .binary table (any source, tabulated); brdf-explorer: a Disney BRDF Explorer .brdf; glsl: a GLSL function with the parameters baked in")
+    p.add_argument("--format", choices=["merl", "brdf-explorer", "glsl", "mitsuba", "mtlx", "gltf"], required=True,
+                   help="merl: a MERL .binary table (any source, tabulated); brdf-explorer: a Disney BRDF Explorer .brdf; "
+                        "glsl: a GLSL function with the parameters baked in; mitsuba: a Mitsuba 3 scene (the reference "
+                        "view) with a principled BSDF; mtlx: MaterialX standard_surface and open_pbr_surface; gltf: a "
+                        "glTF 2.0 sphere with a metallic-roughness material (.glb: binary). The last three take a "
+                        "Principled material as it is and fit anything else to Principled on the way out, saying the error")
+    p.add_argument("--env", help="mitsuba: the scene's environment map (default: the shipped map)")
+    p.add_argument("--env-layout", choices=["auto", "latlong", "angular", "dual-paraboloid"], default="auto",
+                   help="the layout of --env")
     p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="export the K-th stored fit")
     p.add_argument("--out", required=True, help="the file to write")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")

@@ -2,6 +2,8 @@
 
 from pathlib import Path
 
+import numpy as np
+
 from PySide6.QtWidgets import QFileDialog, QWidget
 
 from brdflab.gui.export_dialog import export_dialog
@@ -26,3 +28,50 @@ def test_export_dialog_cancel_writes_nothing(qtbot, tmp_path, monkeypatch):
     monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *a, **k: ("", ""))
     assert export_dialog(parent, load(MATERIAL).material) is None
     assert not list(tmp_path.iterdir())
+
+
+def test_a_renderer_export_fits_in_a_worker_and_says_what_it_cost(qtbot, tmp_path, monkeypatch):
+    """Ward is not principled: the export fits Principled on the way out, in a worker process,
+    while the window keeps answering; then it says the error that cost."""
+    import time
+
+    from PySide6.QtCore import QTimer
+    from PySide6.QtWidgets import QMessageBox
+
+    from brdflab.gui.export_dialog import ExportJob
+
+    parent = QWidget()
+    qtbot.addWidget(parent)
+    target = tmp_path / "ward"
+    monkeypatch.setattr(QFileDialog, "getSaveFileName",
+                        lambda *a, **k: (str(target), "Mitsuba 3 scene, principled BSDF (*.xml)"))
+    shown = []
+    monkeypatch.setattr(QMessageBox, "information", lambda _p, _t, text: shown.append(text))
+    ticks = []
+    timer = QTimer(interval=10)
+    timer.timeout.connect(lambda: ticks.append(time.monotonic()))
+    timer.start()
+    job = export_dialog(parent, load(MATERIAL).material)
+    assert isinstance(job, ExportJob)
+    with qtbot.waitSignal(job.finished, timeout=180_000):
+        pass
+    timer.stop()
+    assert (tmp_path / "ward.xml").is_file() and (tmp_path / "ward_env.exr").is_file()
+    assert shown and "fitted to Principled on the way out: Ngan error" in shown[0]
+    gaps = np.diff(ticks)
+    assert len(ticks) > 20 and np.percentile(gaps, 99) < 0.25  # the window was never held for long
+
+
+def test_a_renderer_export_cancelled_writes_nothing(qtbot, tmp_path, monkeypatch):
+    parent = QWidget()
+    qtbot.addWidget(parent)
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *a, **k: (str(tmp_path / "ward.gltf"), "glTF 2.0 sphere (*.gltf *.glb)"))
+    job = export_dialog(parent, load(MATERIAL).material)
+    with qtbot.waitSignal(job.started, timeout=60_000):
+        pass
+    from PySide6.QtWidgets import QPushButton
+
+    job.dialog.findChild(QPushButton).click()  # the dialog's Cancel, as a user clicks it
+    with qtbot.waitSignal(job.failed, timeout=120_000):
+        pass
+    assert not (tmp_path / "ward.gltf").exists()

@@ -49,6 +49,11 @@ def data_dir(kind: str) -> Path:
     return Path(next(iter(spec.submodule_search_locations)))
 
 
+def default_environment_path() -> Path:
+    """The shipped CC0 map every view and command uses unless told otherwise."""
+    return data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr"
+
+
 def shader_path(name: str) -> Path:
     return data_dir("shaders") / name
 

@@ -18,7 +18,7 @@ from brdflab.lighting.envmap import load_environment
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import all_models
 from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
-from brdflab.io.resources import data_dir
+from brdflab.io.resources import data_dir, default_environment_path
 from brdflab.study.framework import Progress, measured_slice, pyplot, save_figure, timed
 from brdflab.study.framework import quiet as _quiet
 
@@ -54,7 +54,7 @@ def _scene(quick: bool):
     from brdflab.render.object_view import ObjectRenderer
 
     ctx = create_context()
-    env = load_environment(data_dir("resources") / "envmaps" / "venice_sunset_1k.hdr")
+    env = load_environment(default_environment_path())
     return ctx, ObjectRenderer(ctx), env, env.downsampled(128, 64), (256 if quick else 512), (48 if quick else 96)
 
 

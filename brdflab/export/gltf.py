@@ -1,0 +1,103 @@
+"""A glTF 2.0 file: the material (metallic–roughness) on a UV sphere, written with pygltflib.
+
+Principled → glTF: baseColorFactor, metallicFactor, roughnessFactor (glTF's α is roughness²,
+as principled's), and where they apply KHR_materials_ior (η from `specular`),
+KHR_materials_specular (the specular tint as specularColorFactor), KHR_materials_clearcoat
+(clearcoat / 4, roughness √α: approximately, as for MaterialX) and KHR_materials_sheen.
+Not carried: `subsurface` and `anisotropic`; the export says what dropping them costs.
+A `.glb` path gets the binary container, anything else a `.gltf` with the buffer embedded.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.export.principled import PrincipledExport, dropped_error
+from brdflab.models.principled import clearcoat_alpha, specular_eta, tint
+
+SPHERE_RINGS, SPHERE_SEGMENTS = 48, 96
+
+
+def uv_sphere(rings: int = SPHERE_RINGS, segments: int = SPHERE_SEGMENTS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions (= normals) and triangle indices of the unit sphere, +Y up as glTF has it."""
+    theta = np.linspace(0.0, np.pi, rings + 1)
+    phi = np.linspace(0.0, 2.0 * np.pi, segments + 1)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    pos = np.stack([np.sin(t) * np.cos(p), np.cos(t), -np.sin(t) * np.sin(p)], axis=-1).reshape(-1, 3)
+    r, s = np.meshgrid(np.arange(rings), np.arange(segments), indexing="ij")
+    a = r * (segments + 1) + s
+    b = a + segments + 1
+    tris = np.stack([np.stack([a, b, a + 1], -1), np.stack([a + 1, b, b + 1], -1)], axis=2).reshape(-1, 3)
+    return pos.astype(np.float32), pos.astype(np.float32), tris.astype(np.uint32)
+
+
+def material_extensions(export: PrincipledExport) -> dict:
+    p = export.params
+    colour = np.array(export.base_color)
+    out = {"KHR_materials_ior": {"ior": float(specular_eta(max(p["specular"], 1e-4)))}}
+    if p["specular_tint"] > 0.0:
+        out["KHR_materials_specular"] = {"specularFactor": 1.0, "specularColorFactor":
+                                         [float(v) for v in 1.0 + p["specular_tint"] * (tint(colour) - 1.0)]}
+    if p["clearcoat"] > 0.0:
+        out["KHR_materials_clearcoat"] = {"clearcoatFactor": 0.25 * p["clearcoat"],
+                                          "clearcoatRoughnessFactor": float(np.sqrt(clearcoat_alpha(p["clearcoat_gloss"])))}
+    if p["sheen"] > 0.0:
+        out["KHR_materials_sheen"] = {"sheenColorFactor": [float(v) for v in p["sheen"] * (1.0 + p["sheen_tint"] * (tint(colour) - 1.0))],
+                                      "sheenRoughnessFactor": 0.5}
+    return out
+
+
+def gltf_document(export: PrincipledExport, name: str):
+    import pygltflib as g
+
+    pos, normal, tris = uv_sphere()
+    blob = pos.tobytes() + normal.tobytes() + tris.tobytes()
+    extensions = material_extensions(export)
+    material = g.Material(name=name, pbrMetallicRoughness=g.PbrMetallicRoughness(
+        baseColorFactor=[*(float(v) for v in export.base_color), 1.0], metallicFactor=float(export.params["metallic"]),
+        roughnessFactor=float(export.params["roughness"])), extensions=extensions)
+    doc = g.GLTF2(
+        asset=g.Asset(generator="brdflab"), scene=0, scenes=[g.Scene(nodes=[0])],
+        nodes=[g.Node(mesh=0, name="sphere")],
+        meshes=[g.Mesh(name="sphere", primitives=[g.Primitive(attributes=g.Attributes(POSITION=0, NORMAL=1), indices=2, material=0)])],
+        materials=[material], extensionsUsed=sorted(extensions),
+        accessors=[
+            g.Accessor(bufferView=0, componentType=g.FLOAT, count=len(pos), type=g.VEC3,
+                       min=pos.min(0).tolist(), max=pos.max(0).tolist()),
+            g.Accessor(bufferView=1, componentType=g.FLOAT, count=len(normal), type=g.VEC3),
+            g.Accessor(bufferView=2, componentType=g.UNSIGNED_INT, count=tris.size, type=g.SCALAR),
+        ],
+        bufferViews=[
+            g.BufferView(buffer=0, byteOffset=0, byteLength=pos.nbytes, target=g.ARRAY_BUFFER),
+            g.BufferView(buffer=0, byteOffset=pos.nbytes, byteLength=normal.nbytes, target=g.ARRAY_BUFFER),
+            g.BufferView(buffer=0, byteOffset=2 * pos.nbytes, byteLength=tris.nbytes, target=g.ELEMENT_ARRAY_BUFFER),
+        ],
+        buffers=[g.Buffer(byteLength=len(blob))],
+    )
+    doc.set_binary_blob(blob)
+    return doc
+
+
+def export_gltf(export: PrincipledExport, path: Path, name: str) -> list[str]:
+    from brdflab.io.atomic import atomic_path
+
+    doc = gltf_document(export, name)
+    binary = path.suffix.lower() == ".glb"
+    if not binary:
+        doc.convert_buffers(__import__("pygltflib").BufferFormat.DATAURI)
+    with atomic_path(path) as tmp:
+        if binary:
+            doc.save_binary(str(tmp))
+        else:
+            doc.save_json(str(tmp))
+    warnings = list(export.warnings)
+    dropped = {k: 0.0 for k in ("subsurface", "anisotropic") if export.params[k] > 0.0}
+    if dropped:
+        error, relative = dropped_error(export, dropped)
+        warnings.append(f"gltf: {' and '.join(dropped)} not carried: Ngan {error:.4g} ({100 * relative:.1f} % of the material)")
+    if export.params["clearcoat"] > 0.0:
+        warnings.append("gltf: the clear coat is carried approximately (KHR_materials_clearcoat, a GGX layer: "
+                        "clearcoat / 4, roughness √α)")
+    return warnings

@@ -1,0 +1,84 @@
+"""A Mitsuba 3 scene of the lab's reference view with the material as a `principled` BSDF.
+
+The scene is CONVENTIONS.md's reference view: the unit sphere, an orthographic camera along
+−Z spanning x, y ∈ [−1, 1], the environment map as an `envmap` emitter, direct lighting only
+(the lab's renderers draw no interreflection, and a convex sphere has none). The BSDF has
+id "material", for use in other scenes.
+
+Conventions matched (tests/test_export_mitsuba.py renders both):
+- lat-long maps: Mitsuba reads u = atan2(x, −z) / 2π with its texel centres at u = i / W; the
+  lab reads u = φ / 2π + 1/2 with centres at (i + ½) / W: the emitter is rotated about +Y by
+  180° + half a texel;
+- Mitsuba's `specular` = 0 means η = 1, for which it drops the whole main lobe (the metal
+  too): the scene writes at least MIN_SPECULAR;
+- the lab's `subsurface` is Mitsuba's `flatness`, `specular_tint` its `spec_tint`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from lxml import etree
+
+from brdflab.export.principled import PrincipledExport
+
+MIN_SPECULAR = 1e-4
+NAMES = {"subsurface": "flatness", "specular_tint": "spec_tint"}
+
+
+def bsdf_element(export: PrincipledExport) -> etree._Element:
+    bsdf = etree.Element("bsdf", type="principled", id="material")
+    etree.SubElement(bsdf, "rgb", name="base_color", value=", ".join(f"{v:.9g}" for v in export.base_color))
+    for name, value in export.params.items():
+        if name.startswith("base_color"):
+            continue
+        if name == "specular":
+            value = max(value, MIN_SPECULAR)
+        etree.SubElement(bsdf, "float", name=NAMES.get(name, name), value=f"{value:.9g}")
+    return bsdf
+
+
+def scene_text(export: PrincipledExport, env_file: str, env_width: int, name: str, resolution: int = 256,
+               spp: int = 256) -> bytes:
+    """The scene XML; `env_file` is the lat-long map's path as the scene names it."""
+    scene = etree.Element("scene", version="3.0.0")
+    scene.append(etree.Comment(f" {name}: exported by brdflab; the lab's reference view (CONVENTIONS.md) "))
+    for warning in export.warnings:
+        scene.append(etree.Comment(" " + warning.replace("--", "- -") + " "))
+    etree.SubElement(scene, "default", name="spp", value=str(spp))
+    etree.SubElement(scene, "default", name="resx", value=str(resolution))
+    etree.SubElement(scene, "default", name="resy", value=str(resolution))
+    etree.SubElement(scene, "integrator", type="direct")
+    sensor = etree.SubElement(scene, "sensor", type="orthographic")
+    transform = etree.SubElement(sensor, "transform", name="to_world")
+    etree.SubElement(transform, "lookat", origin="0, 0, 5", target="0, 0, 0", up="0, 1, 0")
+    film = etree.SubElement(sensor, "film", type="hdrfilm")
+    etree.SubElement(film, "integer", name="width", value="$resx")
+    etree.SubElement(film, "integer", name="height", value="$resy")
+    etree.SubElement(film, "string", name="pixel_format", value="rgb")
+    etree.SubElement(film, "rfilter", type="box")
+    sampler = etree.SubElement(sensor, "sampler", type="independent")
+    etree.SubElement(sampler, "integer", name="sample_count", value="$spp")
+    scene.append(bsdf_element(export))
+    shape = etree.SubElement(scene, "shape", type="sphere")
+    etree.SubElement(shape, "ref", id="material")
+    emitter = etree.SubElement(scene, "emitter", type="envmap")
+    etree.SubElement(emitter, "string", name="filename", value=env_file)
+    rotation = etree.SubElement(emitter, "transform", name="to_world")
+    etree.SubElement(rotation, "rotate", y="1", angle=f"{180.0 + 180.0 / env_width:.9g}")
+    return etree.tostring(scene, pretty_print=True, xml_declaration=True, encoding="UTF-8")
+
+
+def export_mitsuba(export: PrincipledExport, path: Path, env, name: str) -> list[str]:
+    """Write the scene to `path` and the map beside it (`<stem>_env.exr`); returns the warnings."""
+    from brdflab.io.atomic import atomic_write
+    from brdflab.lighting.envmap import write_exr
+
+    env_path = path.with_name(path.stem + "_env.exr")
+    write_exr(env_path, env.data)
+    atomic_write(path, scene_text(export, env_path.name, env.data.shape[1], name))
+    warnings = list(export.warnings)
+    if export.params.get("anisotropic", 0.0) > 0.0:
+        warnings.append("mitsuba: anisotropy follows each shape's own tangents (the sphere's dp/du), the lab's "
+                        "the projected X axis: anisotropic highlights on the sphere differ")
+    return warnings

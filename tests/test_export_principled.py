@@ -1,0 +1,138 @@
+"""Exports to the renderers' family (Mitsuba 3, MaterialX, glTF), tried as a user would:
+through the command line, read back with each format's own library, and (Mitsuba) rendered
+by Mitsuba 3 against the lab's renders of the same material."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from brdflab.io import xmlio
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.models.principled import specular_eta
+
+ROOT = Path(__file__).resolve().parent.parent
+CAR_PAINT = ROOT / "materials" / "principled_car_paint.xml"
+FITS = ROOT / "docs" / "bench" / "principled_fits"
+MERL_FITS = ("red-specular-plastic", "nickel", "blue-fabric")  # a plastic, a metal, a fabric
+
+
+def principled(name: str, **params) -> AnalyticMaterial:
+    return AnalyticMaterial(name, "Linear", 3, [Lobe.create("Principled", [1.0, 1.0, 1.0], **params)])
+
+
+ANALYTIC = {
+    "car paint": lambda: xmlio.load(CAR_PAINT).material,
+    "gold": lambda: principled("gold", base_color_r=1.0, base_color_g=0.71, base_color_b=0.29, metallic=1.0, roughness=0.35),
+    "velvet": lambda: principled("velvet", base_color_r=0.3, base_color_g=0.05, base_color_b=0.25, roughness=0.9,
+                                 subsurface=0.6, sheen=1.0, sheen_tint=0.5, specular=0.3),
+}
+
+
+def brdflab(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "brdflab", *args], capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def small_env():
+    from brdflab.io.resources import default_environment_path
+    from brdflab.lighting.envmap import load_environment
+
+    return load_environment(default_environment_path()).downsampled(256, 128)
+
+
+@pytest.mark.parametrize("name", [*ANALYTIC, *MERL_FITS])
+def test_mitsuba_renders_the_export_as_the_lab_does(name, small_env):
+    pytest.importorskip("mitsuba")
+    from brdflab.study.mitsuba_check import compare
+
+    material = ANALYTIC[name]() if name in ANALYTIC else xmlio.load(FITS / f"{name}.xml").material
+    c = compare(name, material, small_env, size=24, spp=1024)
+    assert c.mitsuba_noise < 0.05  # enough samples for the comparison to mean something
+    assert c.quadrature_rmse <= 0.02, c.as_dict()
+
+
+def test_the_mitsuba_scene_names_what_it_was_fitted_from(tmp_path):
+    """A material that is not principled goes out fitted, and the command says what that costs."""
+    out = tmp_path / "fig2.xml"
+    r = brdflab("export", "example:fig2", "--format", "mitsuba", "--out", str(out), "--json")
+    assert r.returncode == 0, r.stderr
+    payload = json.loads(r.stdout.splitlines()[-1])
+    assert any("fitted to Principled on the way out: Ngan error" in w for w in payload["warnings"])
+    assert "fitted to Principled" in r.stderr
+    text = out.read_text()
+    assert '<bsdf type="principled" id="material">' in text and "fitted to Principled" in text
+    assert (tmp_path / "fig2_env.exr").is_file()
+
+
+def test_a_principled_material_goes_to_mitsuba_unchanged(tmp_path):
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    out = tmp_path / "paint.xml"
+    r = brdflab("export", str(CAR_PAINT), "--format", "mitsuba", "--out", str(out))
+    assert r.returncode == 0 and "fitted" not in r.stderr, r.stderr
+    params = mi.traverse(mi.load_file(str(out)))
+    lobe = xmlio.load(CAR_PAINT).material.lobes[0].params
+    assert params["material.clearcoat.value"] == pytest.approx(lobe["clearcoat"])
+    assert params["material.roughness.value"] == pytest.approx(lobe["roughness"])
+
+
+def test_materialx_export_validates_and_carries_the_parameters(tmp_path):
+    import MaterialX as mx
+
+    out = tmp_path / "paint.mtlx"
+    r = brdflab("export", str(CAR_PAINT), "--format", "mtlx", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "clear coat is carried approximately" in r.stderr
+    doc = mx.createDocument()
+    mx.readFromXmlFile(doc, str(out))
+    lib = mx.createDocument()
+    mx.loadLibraries(mx.getDefaultDataLibraryFolders(), mx.getDefaultDataSearchPath(), lib)
+    doc.setDataLibrary(lib)
+    ok, message = doc.validate()
+    assert ok, message
+    lobe = xmlio.load(CAR_PAINT).material.lobes[0].params
+    shaders = {node.getCategory(): node for node in doc.getNodes() if node.getType() == "surfaceshader"}
+    assert set(shaders) == {"standard_surface", "open_pbr_surface"}
+    std = shaders["standard_surface"]
+    colour = std.getInputValue("base_color")
+    assert [colour[0], colour[1], colour[2]] == pytest.approx([lobe["base_color_r"], lobe["base_color_g"], lobe["base_color_b"]])
+    assert std.getInputValue("metalness") == pytest.approx(lobe["metallic"])
+    assert std.getInputValue("specular_roughness") == pytest.approx(lobe["roughness"])
+    assert std.getInputValue("specular_IOR") == pytest.approx(float(specular_eta(lobe["specular"])), rel=1e-6)
+    assert shaders["open_pbr_surface"].getInputValue("coat_weight") == pytest.approx(0.25 * lobe["clearcoat"])
+    assert len(doc.getMaterialNodes()) == 2
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+def test_gltf_export_loads_back_with_the_parameters_written(tmp_path, suffix):
+    import pygltflib
+    import trimesh
+
+    out = tmp_path / f"velvet{suffix}"
+    xmlio.save(xmlio.BRDFDocument(ANALYTIC["velvet"]()), tmp_path / "velvet.xml")
+    r = brdflab("export", str(tmp_path / "velvet.xml"), "--format", "gltf", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "gltf: subsurface not carried: Ngan" in r.stderr
+    doc = pygltflib.GLTF2().load(str(out))
+    material = doc.materials[0]
+    assert material.pbrMetallicRoughness.baseColorFactor == pytest.approx([0.3, 0.05, 0.25, 1.0])
+    assert material.pbrMetallicRoughness.roughnessFactor == pytest.approx(0.9)
+    assert material.pbrMetallicRoughness.metallicFactor == pytest.approx(0.0)
+    assert material.extensions["KHR_materials_ior"]["ior"] == pytest.approx(float(specular_eta(0.3)))
+    assert "KHR_materials_sheen" in material.extensions and "KHR_materials_sheen" in doc.extensionsUsed
+    assert "KHR_materials_clearcoat" not in material.extensions  # no coat: the extension does not apply
+    mesh = trimesh.load(str(out), force="mesh")  # another reader opens the sphere
+    assert len(mesh.faces) > 1000
+    assert np.allclose(np.linalg.norm(mesh.vertices, axis=1), 1.0, atol=1e-5)
+
+
+def test_an_export_that_cannot_be_written_is_one_line(tmp_path):
+    r = brdflab("export", str(CAR_PAINT), "--format", "gltf", "--out", str(tmp_path / "missing" / "x.gltf"))
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
