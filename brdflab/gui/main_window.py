@@ -35,6 +35,7 @@ from brdflab.gui.auto_ladder import AutoLadderPanel
 from brdflab.gui.auto_lighting import chosen, choose_job
 from brdflab.gui.background import AutoFitProcess, FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
+from brdflab.gui.probe_open import MAP_FILTER, ask_back_half, front_and_back
 from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
                                 MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries,
                                 refine_job)
@@ -157,6 +158,7 @@ class MainWindow(QMainWindow):
         self._candidate = None
         self._loader = ThreadPoolExecutor(max_workers=1)
         self._loads: list = []
+        self._env_files: tuple[Path, Path | None] = (data_dir("resources") / DEFAULT_ENV, None)  # reopened in a new layout
         self.load_progress = QProgressBar(maximumWidth=160)
         self.load_progress.setRange(0, 0)
         self.load_progress.setVisible(False)
@@ -466,6 +468,7 @@ class MainWindow(QMainWindow):
         self.object_controls.changed.connect(self._object_settings_changed)
         self.object_controls.open_mesh.connect(self.open_mesh_dialog)
         self.object_controls.open_environment.connect(self.open_environment_dialog)
+        self.object_controls.env_layout.textActivated.connect(lambda _: self._reopen_environment())
         for view in (self.lobe_view, self.object_view):
             view.failed.connect(self.show_error)
         e.energy_known.connect(self._editable_energy_known)
@@ -934,18 +937,46 @@ class MainWindow(QMainWindow):
     def open_mesh_dialog(self) -> None:
         self._ask_and_open("Open mesh", "mesh", "Meshes (" + " ".join(f"*{e}" for e in MESH_FORMATS) + ")", self.open_mesh)
 
-    def open_environment(self, path: Path) -> None:
+    def open_environment(self, path: Path, back: Path | None = None) -> None:
+        """Open a map in the object view's map layout (a pair: `path` the front, `back` the back half)."""
+        layout = "dual-paraboloid" if back is not None else self.object_controls.env_layout.currentText()
+
         def apply(env) -> None:
+            self._env_files = (Path(path), back)
             self.object_view.when_ready(lambda: self.object_view.renderer.set_environment(env))
             self.object_view.restart()
             self._request_auto_lighting()
             self._map_note(env)
-            self.statusBar().showMessage(f"environment {path}", 5000)
+            self.statusBar().showMessage(f"environment {env.path} ({env.layout})", 5000)
 
-        self._load("environment", path, load_environment, apply)
+        self._load("environment", path, lambda p: load_environment(p, layout, back), apply)
 
     def open_environment_dialog(self) -> None:
-        self._ask_and_open("Open environment", "env", "HDR maps (*.hdr *.exr)", self.open_environment)
+        """One map, or both halves of a dual-paraboloid pair (multiple selection)."""
+        names, _ = QFileDialog.getOpenFileNames(self, "Open environment (a pair: select both halves)",
+                                                self._folder("env"), MAP_FILTER)
+        if not names:
+            return
+        self.settings.setValue("folders/env", str(Path(names[0]).parent))
+        try:
+            path, back = front_and_back(names)
+        except BRDFLabError as e:
+            self.show_error(str(e))
+            return
+        if back is not None:
+            self.object_controls.env_layout.setCurrentText("dual-paraboloid")
+        elif self.object_controls.env_layout.currentText() == "dual-paraboloid":
+            back = ask_back_half(self, path)
+        self.open_environment(path, back)
+
+    def _reopen_environment(self) -> None:
+        """The map shown, read again in the layout just chosen."""
+        path, back = self._env_files
+        if self.object_controls.env_layout.currentText() != "dual-paraboloid":
+            back = None
+        elif back is None:
+            back = ask_back_half(self, path)
+        self.open_environment(path, back)
 
     def save(self) -> bool:
         if self.workspace.path is None:

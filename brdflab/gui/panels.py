@@ -33,6 +33,8 @@ from PySide6.QtWidgets import (
 
 from brdflab.gui.auto_lighting import details, summary
 from brdflab.gui.background import LatestOnly
+from brdflab.gui.probe_open import LAYOUT_TIP
+from brdflab.lighting.probes import LAYOUTS
 from brdflab.lighting.auto import DEFAULT_TOLERANCE as LIGHTING_TOLERANCE
 from brdflab.material.albedo import energy_check
 from brdflab.fitting.auto import DEFAULT_SPLIT
@@ -495,6 +497,9 @@ class ObjectControls(QWidget):
         self.exposure = ParameterRow(-8.0, 8.0, 0.0)
         self.gamma = QDoubleSpinBox(minimum=0.0, maximum=4.0, value=0.0, singleStep=0.1, specialValueText="sRGB")
         self.rotation = ParameterRow(0.0, 359.0, 0.0)
+        self.env_layout = QComboBox()  # not `layout`: that is QWidget's
+        self.env_layout.addItems(list(LAYOUTS))
+        self.env_layout.setToolTip(LAYOUT_TIP)
         self.light_theta = ParameterRow(0.0, 89.0, 35.0)
         self.light_phi = ParameterRow(0.0, 359.0, 40.0)
         self.shown = QComboBox()
@@ -519,6 +524,7 @@ class ObjectControls(QWidget):
         form.addRow("exposure (EV)", self.exposure)
         form.addRow("gamma", self.gamma)
         form.addRow("environment rotation (°)", self.rotation)
+        form.addRow("map layout", self.env_layout)
         form.addRow("light θ (°)", self.light_theta)
         form.addRow("light φ (°)", self.light_phi)
         form.addRow("show", self.shown)
