@@ -9,6 +9,7 @@ so a file swapped between the check and the read is still caught.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import stat
 from pathlib import Path
@@ -99,3 +100,24 @@ def read_bounded(path: str | os.PathLike, limit: int, what: str = "such a file")
     """All bytes of a regular file of at most `limit` bytes (`what` names the kind in errors)."""
     with BoundedFile(path, limit, what) as f:
         return f.read(f.size)
+
+
+def file_sha256(path: str | os.PathLike, limit: int) -> str | None:
+    """The sha256 of a regular file of at most `limit` bytes, read a MB at a time; None for a
+    file that cannot be read, is special or is larger."""
+    try:
+        with BoundedFile(path, limit) as f:
+            h = hashlib.sha256()
+            for start in range(0, f.size, 1 << 20):
+                h.update(f.read(min(1 << 20, f.size - start)))
+    except BRDFLabError:
+        return None
+    return h.hexdigest()
+
+
+def within(path: str | os.PathLike, folder: str | os.PathLike) -> bool:
+    """Whether `path` lies in `folder` or below once links and `..` are resolved."""
+    try:
+        return Path(path).resolve().is_relative_to(Path(folder).resolve())
+    except (OSError, RuntimeError):  # a name too long, a link loop
+        return False

@@ -66,8 +66,7 @@ class SourceXML:
     def __init__(self, data: bytes, root: etree._Element) -> None:
         self.root = root  # the parsed tree; never modified
         self.encoding = root.getroottree().docinfo.encoding or "UTF-8"  # as the declaration names it
-        self.bom, self.codec = next(((bom, codec) for bom, codec in _BOMS if data.startswith(bom)),
-                                    (b"", _byte_order_free(self.encoding, data)))
+        self.bom, self.codec = codec_of(data, self.encoding)
         self._data: bytes | None = data[len(self.bom):]
         self.text = ""
         self._spans: list[_Span] | None = None
@@ -102,6 +101,13 @@ class SourceXML:
     def decode(self, data: bytes) -> str:
         """The text of bytes written by `encode`."""
         return data[len(self.bom):].decode(self.codec) if data.startswith(self.bom) else data.decode(self.codec)
+
+
+def codec_of(data: bytes, declared: str) -> tuple[bytes, str]:
+    """The BOM a file's bytes start with and the Python codec of the rest (`declared`: the
+    encoding the parser reports)."""
+    return next(((bom, codec) for bom, codec in _BOMS if data.startswith(bom)),
+                (b"", _byte_order_free(declared, data)))
 
 
 def _byte_order_free(encoding: str, data: bytes) -> str:

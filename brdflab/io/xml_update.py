@@ -228,8 +228,7 @@ class _Updater:
 
     @staticmethod
     def kind_of(el: etree._Element) -> type:
-        t = el.find("Type")
-        text = (t.text or "").strip() if t is not None else ""
+        text = xmlio.element_text(el.find("Type"))
         if text == xmlio.ANALYTIC:
             return AnalyticMaterial
         return xmlio.SimulatedReference if text in xmlio.SIMULATED_TYPES else xmlio.MeasuredReference
@@ -238,13 +237,15 @@ class _Updater:
         """Set the text of el's first <tag> to `value` unless it already says so (or, for an
         absent or empty element, unless `value` is what the reader makes of that)."""
         child = el.find(tag)
-        text = None if child is None or child.text is None else child.text.strip() or None
+        text = xmlio.element_text(child)
         if text == value or (text is None and value in (implied, "")):
             return
         if child is None:
             child = etree.Element(tag)
             self.insert_after(el, None, child)
         child.text = value
+        for node in child:  # comments inside keep their place; the text after them goes
+            node.tail = None
 
     def checksum(self, el: etree._Element, sha256: str | None) -> None:
         child = el.find("Checksum")
@@ -298,7 +299,7 @@ class _Updater:
         else:
             _set_integer(lobe_el, "channel", lobe.channel)
         model = lobe_el.find("Model")
-        model_changed = model is None or (model.text or "").strip() != lobe.model.xml_name
+        model_changed = xmlio.element_text(model) != lobe.model.xml_name
         self.child_text(lobe_el, "Model", lobe.model.xml_name)
         self.model_file(lobe_el, lobe.model)
         p_el = lobe_el.find("Parameters")
@@ -311,7 +312,7 @@ class _Updater:
         else:
             changed = self.lobe_parameters(p_el, lobe, combination) or model_changed
         declared = lobe_el.find("Type")
-        says = None if declared is None or declared.text is None else declared.text.strip()
+        says = xmlio.element_text(declared)
         if changed and (model_changed or (says == "Isotropic" and xmlio.lobe_type(lobe) != says)):
             self.child_text(lobe_el, "Type", xmlio.lobe_type(lobe))
         return group

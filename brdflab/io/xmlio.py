@@ -11,7 +11,6 @@ network; saving is atomic.
 from __future__ import annotations
 
 import copy
-import hashlib
 import math
 import os
 import re
@@ -22,8 +21,9 @@ from lxml import etree
 
 from brdflab.errors import BRDFLabError
 from brdflab.io.atomic import atomic_write
-from brdflab.io.bounded import MAX_DATA_BYTES, BoundedFile, read_bounded
-from brdflab.io.xml_source import SourceXML
+from brdflab.io.bounded import MAX_DATA_BYTES, file_sha256, read_bounded, within
+from brdflab.io.numbers import ascii_integer, ascii_number
+from brdflab.io.xml_source import SourceXML, codec_of
 from brdflab.material.analytic import MAX_CHANNELS, MAX_LOBES, AnalyticMaterial, Lobe, SourceLinked
 from brdflab.models import get_model
 
@@ -55,20 +55,24 @@ class MeasuredReference(SourceLinked):
 
     @property
     def missing(self) -> bool:
-        return not self.path.is_file()
+        return not os.path.isfile(self.path)  # False, not an error, for a name too long for the system
 
     def current_sha256(self) -> str | None:
         """The data file's checksum; None when it is missing, special or too large to be data."""
-        if self.missing:
+        return None if self.missing else file_sha256(self.path, MAX_DATA_BYTES)
+
+    def confinement_problem(self) -> str | None:
+        """Why the data file may not be opened, or None (the data-file policy of
+        docs/hostile-input.md): a file outside the material's folder (after links) is opened
+        only when the material records its sha256 and the file matches it, as in the lab's own
+        saves; a hand-made `../../etc/shadow` is refused before a byte of it is interpreted."""
+        if self.missing or within(self.path, self.base_dir or Path(".")):
             return None
-        try:
-            with BoundedFile(self.path, MAX_DATA_BYTES) as f:
-                h = hashlib.sha256()
-                for start in range(0, f.size, 1 << 20):
-                    h.update(f.read(min(1 << 20, f.size - start)))
-        except BRDFLabError:
+        if self.sha256 and self.current_sha256() == self.sha256.strip().lower():
             return None
-        return h.hexdigest()
+        return ("the data file named in the material lies outside the material's folder and the "
+                "material records no matching sha256 checksum for it: refused (copy the file next to the "
+                "material, or open it directly)")
 
     def checksum_problem(self) -> str | None:
         """A warning when the data file no longer matches the checksum the material records."""
@@ -191,17 +195,23 @@ class _Reader:
             raise self.fail(el, f"{len(el.attrib):,} attributes (at most {MAX_ATTRIBUTES})")
         return dict(el.attrib)
 
+    def single(self, el: etree._Element, tag: str) -> etree._Element | None:
+        """el's one <tag> child: a second one is refused, as the two could say different things
+        and a save would update only the first."""
+        found = el.findall(tag)
+        if len(found) > 1:
+            raise self.fail(found[1], f"a second <{tag}> in <{el.tag}> (the first is on line {found[0].sourceline})")
+        return found[0] if found else None
+
     def text(self, el: etree._Element, tag: str, required: bool = True) -> str | None:
-        child = el.find(tag)
-        if child is None or child.text is None or not child.text.strip():
-            if required:
-                raise self.fail(el, f"missing <{tag}>")
-            return None
-        return child.text.strip()
+        value = element_text(self.single(el, tag))
+        if value is None and required:
+            raise self.fail(el, f"missing <{tag}>")
+        return value
 
     def number(self, el: etree._Element, attr: str, value: str) -> float:
         try:
-            v = float(value)
+            v = ascii_number(value)
         except ValueError:
             shown = repr(value) if len(value) <= 32 else f"{value[:24]!r}… ({len(value)} characters)"
             raise self.fail(el, f"{attr}={shown} is not a number") from None
@@ -214,7 +224,7 @@ class _Reader:
         if value is None:
             raise self.fail(el, f"missing attribute {attr}")
         try:
-            return int(value)
+            return ascii_integer(value)
         except ValueError:
             shown = repr(value) if len(value) <= 32 else f"{value[:24]!r}… ({len(value)} characters)"
             raise self.fail(el, f"{attr}={shown} is not an integer") from None
@@ -284,6 +294,8 @@ class _Reader:
     def material(self, el: etree._Element) -> AnalyticMaterial | MeasuredReference:
         name = self.text(el, "Name", required=False) or ""
         mtype = self.text(el, "Type")
+        for tag in ("LobeCombination", "Parameters", "Checksum", "Simulation"):
+            self.single(el, tag)
         known = {"Name", "Type"}
         if mtype in SIMULATED_TYPES:
             return self.simulated(el, mtype, name)
@@ -390,8 +402,10 @@ class _Reader:
     def lobe(self, el: etree._Element, combination: str, scale: list[float] | None,
              scale_el: etree._Element | None) -> Lobe:
         model_name = self.text(el, "Model")
+        self.text(el, "Type", required=False)
+        self.single(el, "ModelFile")
         model = self.model_of(el, model_name)
-        p_el = el.find("Parameters")
+        p_el = self.single(el, "Parameters")
         given = {} if p_el is None else {k: self.number(p_el, k, v) for k, v in self.attributes(p_el).items()}
         channel = None
         if combination == "Fixed":
@@ -444,6 +458,15 @@ class _Reader:
             raise self.fail(el.find("Model") if ref is None else ref, str(e)) from None
 
 
+def element_text(el: etree._Element | None) -> str | None:
+    """An element's text, stripped, without the comments and processing instructions inside it
+    (`<Model><!-- note -->Ward</Model>` says Ward); None when there is none."""
+    if el is None:
+        return None
+    text = "".join(el.xpath("text()")).strip()
+    return text or None
+
+
 def model_file_element(model, base_dir: Path | None) -> etree._Element:
     """<ModelFile path=".." sha256=".."/>: where a file model came from, relative to the
     material's folder where it can be, so that the pair moves together."""
@@ -462,7 +485,7 @@ _WRITE_DIR: list[Path | None] = [None]  # the folder a document is being written
 
 def _parse_scalar(text: str):
     """An int or a finite float, else the text as it is (Infinity and NaN are not JSON)."""
-    for conv in (int, float):
+    for conv in (ascii_integer, ascii_number):
         try:
             value = conv(text)
         except ValueError:
@@ -493,7 +516,7 @@ def checked_root(data: bytes, path, kind: str = "material") -> tuple[etree._Elem
         raise BRDFLabError(f"malformed XML: {e}", path) from None
     if root is None:
         raise BRDFLabError("empty XML document", path)
-    doctype = _checked_doctype(data, path, kind)
+    doctype = _checked_doctype(root, data, path, kind)
     elements = int(root.xpath("count(//*)"))
     if elements > MAX_ELEMENTS:
         raise BRDFLabError(f"{elements:,} elements is more than the {MAX_ELEMENTS:,} a {kind} file may hold", path)
@@ -502,26 +525,41 @@ def checked_root(data: bytes, path, kind: str = "material") -> tuple[etree._Elem
     return root, doctype
 
 
-_BARE_DOCTYPE = re.compile(rb"<!DOCTYPE\s+([A-Za-z_][\w.-]*)\s*>")
+_BARE_DOCTYPE = re.compile(r"<!DOCTYPE\s+([A-Za-z_][\w.-]*)\s*>", re.ASCII)
 
 
-def _checked_doctype(data: bytes, path, kind: str = "material") -> str | None:
+def _checked_doctype(root: etree._Element, data: bytes, path, kind: str = "material") -> str | None:
     """The name of a bare `<!DOCTYPE NAME>` line (as BRDFLab's Qt writer puts there), or None.
 
-    A DOCTYPE with an internal subset or an external identifier can declare or load entities,
-    so it is refused, as is any entity declaration anywhere in the file.
+    Judged on the parsed document, so that every encoding is judged alike: lxml's DTD of the
+    file (parsed with entities and DTD loading off) must declare no entity (general or
+    parameter: lxml substitutes internal entities in attribute values even so) and name no
+    SYSTEM/PUBLIC identifier; the DOCTYPE's text, decoded as the parser decoded it, must be
+    bare (an internal subset could hold declarations lxml does not list).
     """
-    if b"<!ENTITY" in data:
-        raise BRDFLabError(f"entity declarations are not accepted in {kind} files", path)
-    start = data.find(b"<!DOCTYPE")
-    if start < 0:
+    info = root.getroottree().docinfo
+    dtd = info.internalDTD
+    if dtd is None:
         return None
-    match = _BARE_DOCTYPE.match(data, start)
-    if match is None or data.find(b"<!DOCTYPE", match.end()) >= 0:
-        raise BRDFLabError(
-            f"only a bare DOCTYPE line (e.g. <!DOCTYPE BRDF>) is accepted in {kind} files; "
-            "internal subsets and SYSTEM/PUBLIC identifiers are refused", path)
-    return match.group(1).decode("ascii")
+    if next(iter(dtd.iterentities()), None) is not None:
+        raise BRDFLabError(f"entity declarations are not accepted in {kind} files", path)
+    if info.public_id or info.system_url or next(iter(dtd.iterelements()), None) is not None:
+        raise _not_bare(path, kind)
+    bom, codec = codec_of(data, info.encoding or "UTF-8")
+    try:
+        text = data[len(bom):].decode(codec, errors="replace")
+    except LookupError:  # an encoding libxml2 knows and Python does not: nothing to check it with
+        raise _not_bare(path, kind) from None
+    start = text.find("<!DOCTYPE")
+    match = _BARE_DOCTYPE.match(text, start)
+    if start < 0 or match is None or text.find("<!DOCTYPE", match.end()) >= 0:
+        raise _not_bare(path, kind)
+    return match.group(1)
+
+
+def _not_bare(path, kind: str) -> BRDFLabError:
+    return BRDFLabError(f"only a bare DOCTYPE line (e.g. <!DOCTYPE BRDF>) is accepted in {kind} files; "
+                        "internal subsets and SYSTEM/PUBLIC identifiers are refused", path)
 
 
 def load(path: str | os.PathLike) -> BRDFDocument:

@@ -6,6 +6,7 @@ analytic materials, measured tables, raw samples and simulated materials all qua
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Callable
 
@@ -29,10 +30,14 @@ def is_xml(path: Path) -> bool:
 
 
 def resolve_measured(ref: MeasuredReference, warn: Warn | None = None):
-    """Load the data a measured XML material names, or say exactly what is missing; `warn`
-    hears when the data no longer matches the checksum the material records."""
-    if not ref.path.exists():
-        raise BRDFLabError(f"the measured data file {ref.name!r} named in the material is missing", ref.path)
+    """Load the data a measured XML material names, or say exactly what is missing or refused
+    (a file outside the material's folder); `warn` hears when the data no longer matches the
+    checksum the material records."""
+    if not os.path.exists(ref.path):  # False, not an error, for a name too long for the system
+        raise BRDFLabError("the measured data file named in the material is missing", ref.path)
+    refused = ref.confinement_problem()
+    if refused:
+        raise BRDFLabError(refused, ref.path)
     table = read_measured(ref.path, ref.type)
     problem = ref.checksum_problem()
     if problem and warn is not None:

@@ -19,8 +19,10 @@ from typing import Callable, Iterable
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.bounded import file_sha256, within
 from brdflab.io.resources import MODELS_ENV
 from brdflab.models.files import SUFFIXES, is_model_file, read_model_bytes, read_model_file
+from brdflab.models.files.limits import MAX_MODEL_BYTES
 from brdflab.models.files.expression import direction_values
 from brdflab.models.files.model import FileModel
 from brdflab.models.registry import DuplicateModelName, add_file_model, file_models, find_file_model, model_names
@@ -153,7 +155,9 @@ def resolve_reference(model_name: str, path_text: str | None, sha256: str | None
     if path_text:
         p = Path(path_text)
         candidate = p if p.is_absolute() or base_dir is None else base_dir / p
-        if candidate.is_file():
+        # a file outside the material's folder only when it is the one recorded (docs/hostile-input.md)
+        if os.path.isfile(candidate) and (within(candidate, base_dir or Path(".")) or (
+                sha256 and file_sha256(candidate, MAX_MODEL_BYTES) == sha256)):
             model = load_model_file(candidate)
             if model.xml_name != model_name:
                 raise BRDFLabError(f"the model file defines {model.xml_name!r}, not {model_name!r}", candidate)

@@ -7,11 +7,11 @@ import re
 from typing import Callable
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.numbers import DECIMAL  # ASCII digits only
 from brdflab.models.base import Parameter
 
 MAX_MODEL_BYTES = 1 << 20  # BRDF Explorer's largest file (disney.brdf) is 4 KB
 MAX_PARAMETERS = 32  # scalars: the renderers pass a lobe's parameters as float p[NP], NP ≤ 32 (render.glsl)
-_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")  # ASCII digits only
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _GLSL_RESERVED = frozenset("""
 attribute const uniform varying layout centroid flat smooth noperspective patch sample break continue do
@@ -27,7 +27,7 @@ def number(text: str | None, what: str, fail: Callable[[str], BRDFLabError]) -> 
     if text is None:
         raise fail(f"missing {what}")
     t = text.strip()
-    if not _NUMBER.fullmatch(t):
+    if not DECIMAL.fullmatch(t):
         raise fail(f"{what}={t[:32]!r} is not a number")
     v = float(t)
     if not math.isfinite(v):
