@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
+
 MAX_MESSAGE = 300  # characters of a message, past the file name
+MAX_PATH_SHOWN = 200  # characters of the file name itself (its middle is elided)
 
 
 class BRDFLabError(Exception):
@@ -17,4 +20,17 @@ class BRDFLabError(Exception):
         message = " ".join(str(message).split())  # one line, whatever a library said
         if len(message) > MAX_MESSAGE:  # e.g. a list of a hostile file's 10⁶ attribute names
             message = message[:MAX_MESSAGE - 1] + "…"
-        super().__init__(f"{self.path}: {message}" if self.path else message)
+        super().__init__(f"{shown_path(self.path)}: {message}" if self.path else message)
+
+
+def shown_path(path: object) -> str:
+    """A file name as one printable line: bytes that are not UTF-8 as \\xNN, control
+    characters (a newline in the name) as escapes and the middle of an over-long name elided,
+    so an error stays one short line that any terminal or log can hold."""
+    text = str(path)
+    try:
+        text = os.fsencode(text).decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a lone surrogate that was not an undecodable byte
+        text = text.encode("utf-8", "backslashreplace").decode("utf-8")
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return text if len(text) <= MAX_PATH_SHOWN else f"{text[:MAX_PATH_SHOWN - 61]}…{text[-60:]}"

@@ -131,7 +131,7 @@ def merl_bytes(values=None, dims=(90, 90, 180)):
 BAD_BINARY = {
     "truncated": (merl_bytes()[:-8], "truncated"),
     "oversized": (merl_bytes() + b"\0" * 8, "oversized"),
-    "header": (merl_bytes(dims=(90, 90, 360)), "header dimensions (90, 90, 360)"),
+    "header": (merl_bytes(dims=(90, 90, 360)), "dimensions are not MERL's (90, 90, 180)"),
     "tiny": (b"\1\2", "truncated"),
     "all negative": (merl_bytes(-np.ones(3 * 90 * 90 * 180)), "every sample is negative"),
     "nan": (merl_bytes(np.r_[np.nan, np.ones(3 * 90 * 90 * 180 - 1)]), "NaN or Inf"),

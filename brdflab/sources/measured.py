@@ -187,7 +187,7 @@ def _check_peaks(peaks: np.ndarray, scale: np.ndarray, path: Path) -> None:
     over = np.flatnonzero(peaks * scale > MAX_BRDF_VALUE)
     if over.size:
         c = int(over[0])
-        raise BRDFLabError(f"channel {c} holds {peaks[c]:g}, beyond any real BRDF "
+        raise BRDFLabError(f"channel {c} holds a value beyond any real BRDF "
                            f"(values above {MAX_BRDF_VALUE:g} 1/sr are refused)", path)
 
 
@@ -199,7 +199,7 @@ def read_merl_binary(path: str | os.PathLike) -> MeasuredTable:
             raise BRDFLabError(f"truncated: {f.size} bytes, a MERL header alone is 12", path)
         dims = np.frombuffer(f.read(12), dtype="<i4")
         if not np.array_equal(dims, MERL_HEADER):
-            raise BRDFLabError(f"header dimensions {tuple(int(d) for d in dims)}, expected (90, 90, 180)", path)
+            raise BRDFLabError("the header's dimensions are not MERL's (90, 90, 180)", path)
         if f.size != MERL_BYTES:
             raise BRDFLabError(f"truncated: {f.size} bytes, expected {MERL_BYTES}", path)
         raw = np.frombuffer(f.read_rest(), dtype="<f8").reshape(3, N_TH, N_TD, N_PD)
@@ -234,6 +234,8 @@ def read_carpaint(path: str | os.PathLike) -> MeasuredTable:
     data = _read_exactly(path, CARPAINT_BYTES, "an MPI car paint file")
     raw = np.frombuffer(data, dtype="<f4", offset=CARPAINT_HEADER).reshape(N_PD, N_TH, N_TD, 3)
     values, _ = _checked_values(np.maximum(raw, 0.0).transpose(3, 1, 2, 0), path)  # negatives read as 0
+    if not values.any():
+        raise BRDFLabError("every value is negative or zero (nothing was measured)", path)
     valid = np.ones(values.shape[1:], bool)
     return MeasuredTable(np.ascontiguousarray(values), valid, path.stem, "MPICarPaint", path)
 
@@ -302,10 +304,29 @@ def read_raw_samples(path: str | os.PathLike) -> RawSamples:
     finite = np.isfinite(a).all(axis=1)
     if not finite.all():
         raise BRDFLabError(f"sample {int(np.argmin(finite)) + 1}: NaN or Inf", path)
-    _check_peaks(np.abs(a[:, 4:]).max(axis=0), np.ones(a.shape[1] - 4), path)
+    problem = _sample_problem(a)
+    if problem:
+        raise BRDFLabError(problem, path)
+    _check_peaks(a[:, 4:].max(axis=0), np.ones(a.shape[1] - 4), path)
     wi = spherical_to_cartesian(a[:, 0], a[:, 1])
     wo = spherical_to_cartesian(a[:, 2], a[:, 3])
+    if not ((wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)).any():
+        raise BRDFLabError("every sample has θi or θo at or below the horizon (π/2): nothing to look up", path)
     return RawSamples(wi, wo, a[:, 4:], path.stem, path)
+
+
+def _sample_problem(a: np.ndarray) -> str | None:
+    """The first sample (row) whose angles are not radians on the sphere (θ in [0, π], φ in
+    [−2π, 2π]: degrees or 1e300 are not) or whose value is negative, by row and field number."""
+    theta, phi = a[:, [0, 2]], a[:, [1, 3]]
+    bad_angle = ((theta < 0.0) | (theta > np.pi)).any(axis=1) | (np.abs(phi) > 2.0 * np.pi).any(axis=1)
+    negative = (a[:, 4:] < 0.0).any(axis=1)
+    if bad_angle.any():
+        return (f"sample {int(np.argmax(bad_angle)) + 1}: an angle outside θ ∈ [0, π], φ ∈ [−2π, 2π] "
+                "(angles are radians)")
+    if negative.any():
+        return f"sample {int(np.argmax(negative)) + 1}: a negative value (a BRDF is ≥ 0)"
+    return None
 
 
 def _first_bad_line(text: str) -> str:
