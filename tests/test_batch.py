@@ -235,3 +235,29 @@ def test_auto_is_one_more_task_per_source_scored_on_all_samples(tmp_path, cluste
     assert metric_error(stored, samples, "Ngan") == pytest.approx(auto["error"], rel=1e-6)  # all samples, reread
     again = run_batch(settings, stream=open(os.devnull, "w"))
     assert (again.ran, again.skipped) == (0, 2)
+
+
+def test_two_batches_into_one_folder_keep_each_others_rows(tmp_path):
+    """Two batches run into one --out, each started before the other saved: every save takes
+    the folder's lock and takes in the rows the other saved (the later save kept only its own
+    rows, so a run ended with half of them)."""
+    from types import SimpleNamespace
+
+    from brdflab.batch.runner import Recorder
+    from brdflab.batch.table import COLUMNS, ResultsTable
+
+    def outcome(key: str):
+        row = {c: "" for c in COLUMNS} | {"key": key, "source": key, "material": key, "lobes": "Lambertian",
+                                           "status": "converged", "error": 0.5}
+        return SimpleNamespace(row=row, fitting=None, source_type=None)
+
+    tasks = [SimpleNamespace(source=s, sha256="0" * 64) for s in ("a", "b")]
+    first, second = Recorder(tmp_path, tasks, print), Recorder(tmp_path, tasks, print)
+    first.add([outcome("a")])
+    second.add([outcome("b")])
+    first.flush()
+    second.flush()
+    first.add([outcome("a")])  # a later result of the first batch keeps the second's row too
+    first.flush()
+    assert sorted(ResultsTable.load(tmp_path).rows) == ["a", "b"]
+    assert len(pd.read_csv(tmp_path / "results.csv")) == 2

@@ -16,7 +16,8 @@ from brdflab.batch.table import CSV_NAME, PARQUET_NAME, ResultsTable
 from brdflab.batch.tasks import (FitTask, TaskOutcome, base_row, discover_sources, make_tasks, one_line,
                                  options_dict, run_task)
 from brdflab.errors import BRDFLabError
-from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE, validate_tolerance
+from brdflab.io.atomic import ensure_folder, folder_lock
+from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE, validate_models, validate_tolerance
 from brdflab.models import get_model
 from brdflab.study.workers import ONE_THREAD, core_count  # one BLAS thread per worker; the cores we may use
 
@@ -62,6 +63,7 @@ def validate(settings: BatchSettings) -> None:
         raise BRDFLabError("name at least one lobe set (--lobes A,B,...) or --auto")
     if settings.auto:
         validate_tolerance(settings.auto_tolerance)
+        validate_models(settings.auto_models)
         for name in settings.auto_models:
             get_model(name)  # an unknown model fails before any cluster starts
     elif settings.auto_models:
@@ -133,8 +135,8 @@ class Recorder:
 
     def __init__(self, out: Path, tasks: list[FitTask], warn) -> None:
         self.table = ResultsTable.load(out)
-        self.store = FitStore(out / "fits", sorted({t.source for t in tasks}))
-        self.store.folder.mkdir(parents=True, exist_ok=True)
+        self.store = FitStore(ensure_folder(out / "fits"), sorted({t.source for t in tasks}))
+        self.warn = warn
         self.store.load_existing(warn)
         self.sha = {t.source: t.sha256 for t in tasks}
         self.dirty: set[str] = set()
@@ -154,12 +156,18 @@ class Recorder:
         return self.unsaved > 0 and time.monotonic() - self.last_flush >= self.interval
 
     def flush(self) -> None:
+        """Write what arrived, under the output folder's lock, with what a batch running beside
+        this one (into the same --out) saved meanwhile."""
         t0 = time.monotonic()
-        for source in sorted(self.dirty):
-            rows = sorted((r for r in self.table.rows.values() if r["source"] == source),
-                          key=lambda r: (r["lobes"], r["options"]))
-            self.store.write(source, rows, self.sha[source])
-        self.table.save()
+        with folder_lock(self.table.folder):
+            self.table.merge_saved()
+            if self.dirty:
+                self.store.load_existing(self.warn)
+            for source in sorted(self.dirty):
+                rows = sorted((r for r in self.table.rows.values() if r["source"] == source),
+                              key=lambda r: (r["lobes"], r["options"]))
+                self.store.write(source, rows, self.sha[source])
+            self.table.save()
         self.dirty.clear()
         self.unsaved = 0
         self.last_flush = time.monotonic()
@@ -175,14 +183,14 @@ def run_batch(settings: BatchSettings, stream=None) -> BatchSummary:
     lobe_sets = list(dict.fromkeys(settings.lobe_sets))  # a set named twice is one task per source
     tasks = make_tasks(discover_sources(settings.sources), lobe_sets, settings.combination, options,
                        settings.auto_settings())
-    settings.out.mkdir(parents=True, exist_ok=True)
+    ensure_folder(settings.out)  # a read-only or missing place fails here, in one line
     recorder = Recorder(settings.out, tasks, lambda text: print(f"brdflab batch: warning: {text}", file=stream))
     pending = [t for t in tasks if not recorder.table.is_done(t.key, t.sha256)]
     summary = BatchSummary(tasks=len(tasks), skipped=len(tasks) - len(pending))
     if pending:
         _run(pending, settings, recorder, summary, stream)
     elif not (settings.out / CSV_NAME).exists():
-        recorder.table.save()
+        recorder.flush()
     charts = write_charts(recorder.table.frame(), settings.metric, settings.out)
     summary.files = [CSV_NAME, PARQUET_NAME, *(c.name for c in charts)]
     summary.seconds = time.perf_counter() - t0

@@ -22,11 +22,14 @@ class FitStore:
     def __init__(self, folder: Path, sources: list[str]) -> None:
         self.folder = folder
         self.fittings: dict[str, Fitting] = {}
+        self.own: set[str] = set()  # keys fitted by this process: they win over the stored fits
         self.names = _file_names(sources)
         self.source_types: dict[str, str | None] = {}
 
     def load_existing(self, warn) -> None:
-        """Collect the batch fittings stored by earlier runs in the folder."""
+        """Collect the batch fittings stored in the folder by earlier runs (or, when called
+        again under the folder's lock, by a batch running beside this one), keeping this
+        process's own."""
         for path in sorted(self.folder.glob("*.xml")):
             try:
                 doc = load(path)
@@ -35,7 +38,7 @@ class FitStore:
                 continue
             for fitting in doc.fittings:
                 key = fitting.statistics.get(KEY)
-                if key:
+                if key and str(key) not in self.own:
                     self.fittings[str(key)] = fitting
             if isinstance(doc.material, MeasuredReference) and doc.path is not None:
                 source = str(doc.material.path.resolve())
@@ -44,6 +47,7 @@ class FitStore:
     def add(self, key: str, source: str, fitting: Fitting, source_type: str | None) -> None:
         fitting.statistics[KEY] = key
         self.fittings[key] = fitting
+        self.own.add(key)
         if source_type:
             self.source_types[source] = source_type
 

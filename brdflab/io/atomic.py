@@ -5,14 +5,18 @@ while long work runs; its reader skips a torn last line.
 
 A unique temporary file in the target folder is written, fsync'ed and renamed over the
 target (os.replace), so a crash, a full disk or a second writer never leaves a half-written
-or unreadable file: readers see the old file or the new one. Problems with the target
-(missing folder, read-only folder, a file where the folder should be, a full disk) become
-one-line BRDFLabErrors that name the file.
+or unreadable file: readers see the old file or the new one. A target that is a symbolic
+link is written through: the linked file is replaced, the link stays. A target that exists
+and is not a regular file (a device such as /dev/full, a FIFO, a folder) is refused: a
+rename would replace the node itself. Problems with the target (missing folder, read-only
+folder, a file where the folder should be, a full disk) become one-line BRDFLabErrors that
+name the file.
 """
 
 from __future__ import annotations
 
 import errno
+import fcntl
 import os
 import tempfile
 from collections.abc import Iterator
@@ -20,6 +24,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.bounded import kind_problem
 
 
 def _problem(error: OSError, path: Path) -> str:
@@ -64,13 +69,12 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """A unique temporary path in `path`'s folder for a writer that needs a file name
     (OpenEXR, savefig); when the block ends it is fsync'ed and renamed to `path`.
     On any error the temporary file is removed and the target is left as it was."""
-    path = Path(path)
-    if path.is_dir():
-        raise BRDFLabError("cannot write: it is a folder", path)
+    named = Path(path)
+    path = _write_target(named)
     try:
         fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix, dir=path.parent)
     except OSError as e:
-        raise BRDFLabError(_problem(e, path), path) from None
+        raise BRDFLabError(_problem(e, path), named) from None
     os.close(fd)
     tmp = Path(tmp_name)
     try:
@@ -82,8 +86,24 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     except BaseException as e:
         tmp.unlink(missing_ok=True)
         if isinstance(e, OSError):
-            raise BRDFLabError(_problem(e, path), path) from None
+            raise BRDFLabError(_problem(e, path), named) from None
         raise
+
+
+def _write_target(path: Path) -> Path:
+    """The file a save to `path` replaces: the file a symbolic link leads to (so the link
+    keeps working and the linked file is updated), never something that is not a regular file."""
+    target = Path(os.path.realpath(path)) if os.path.islink(path) else path
+    try:
+        mode = os.stat(target).st_mode
+    except OSError:  # nothing there yet (or an unreadable folder: the write says so)
+        return target
+    problem = kind_problem(mode)
+    if problem == "not a regular file: a directory":
+        raise BRDFLabError("cannot write: it is a folder", path)
+    if problem:
+        raise BRDFLabError(f"cannot write: {problem}; only regular files are saved over", path)
+    return target
 
 
 def atomic_write(path: str | os.PathLike, data: bytes) -> None:
@@ -131,3 +151,19 @@ def ensure_folder(folder: str | os.PathLike) -> Path:
         raise BRDFLabError(_problem(e, folder), folder) from None
     check_writable(folder / ".brdflab-probe")
     return folder
+
+
+@contextmanager
+def folder_lock(folder: str | os.PathLike) -> Iterator[None]:
+    """Hold an exclusive lock on `folder` (a `.brdflab.lock` file in it) while the block runs,
+    so that processes that read, merge and rewrite the same files there take turns."""
+    path = Path(folder) / ".brdflab.lock"
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+    except OSError as e:
+        raise BRDFLabError(_problem(e, path), path) from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
