@@ -64,8 +64,12 @@ def finite_float(text: str) -> float:
     return value
 
 
+MAX_IMAGE_PIXELS = 4096 * 4096  # a render holds ~120 bytes per pixel (2 GB at this size)
+
+
 def image_size(text: str) -> tuple[int, int]:
-    """An argparse type: `W,H`, each side 1..8192 pixels."""
+    """An argparse type: `W,H`, each side 1..8192 pixels, at most MAX_IMAGE_PIXELS in all
+    (8192 × 8192 needed 8 GB and ended in a MemoryError)."""
     parts = text.split(",")
     try:
         width, height = (int(p) for p in parts)
@@ -73,6 +77,9 @@ def image_size(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(f"{text!r}: expected W,H (two whole numbers of pixels)") from None
     if not (1 <= width <= 8192 and 1 <= height <= 8192):
         raise argparse.ArgumentTypeError(f"{text!r}: each side must be 1..8192 pixels")
+    if width * height > MAX_IMAGE_PIXELS:
+        raise argparse.ArgumentTypeError(f"{text!r}: {width * height:,} pixels; the renderer draws at most "
+                                         f"{MAX_IMAGE_PIXELS:,} (e.g. 4096,4096 or 8192,2048)")
     return width, height
 
 

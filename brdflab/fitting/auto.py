@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from typing import Callable, Protocol
@@ -52,6 +53,7 @@ from brdflab.models import get_model, model_names
 DEFAULT_TOLERANCE = 0.05
 DEFAULT_SPLIT = 20_000  # samples fitted, and as many held back
 MAX_LOBES = 3  # after the Lambertian
+MAX_AUTO_MODELS = 32  # the models a ladder tries (each at each rung); more than the registry's built-ins
 SPLIT_SEED = 13
 SCREENED_RUNGS = 1  # rungs screened before their full fits (see the module doc)
 SCREEN_KEEP = 4  # Auto fully fits at least this many of a screened rung's candidates (with 3, the
@@ -188,6 +190,16 @@ def improves(current: float, new: float, tolerance: float) -> bool:
 def validate_tolerance(tolerance: float) -> None:
     if not (math.isfinite(tolerance) and 0.0 <= tolerance < 1.0):
         raise BRDFLabError(f"--tolerance {tolerance:g}: must be a relative error in [0, 1), e.g. 0.05")
+
+
+def validate_models(models: list[str] | tuple[str, ...]) -> None:
+    """Auto fits every listed model at every rung: a model listed twice, or more than
+    MAX_AUTO_MODELS of them (1,000 entries ran for minutes), is refused before any fit."""
+    if len(models) > MAX_AUTO_MODELS:
+        raise BRDFLabError(f"--models lists {len(models):,} models; Auto tries at most {MAX_AUTO_MODELS}")
+    repeated = sorted(name for name, n in Counter(models).items() if n > 1)
+    if repeated:
+        raise BRDFLabError(f"--models names {', '.join(repeated)} more than once")
 
 
 def split_samples(samples: SampleSet, size: int = DEFAULT_SPLIT, seed: int = SPLIT_SEED
@@ -351,6 +363,7 @@ def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: s
     `progress` is called after every screen and full fit; once `cancel` is set, the running
     fit stops within a sample chunk and the ladder so far is returned (its `reason` says so)."""
     validate_tolerance(tolerance)
+    validate_models(models or [])
     t0, c0 = time.perf_counter(), time.process_time()
     options = replace(options or FitOptions(), metric=metric, diagnose=False)
     options.validate()

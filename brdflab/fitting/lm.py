@@ -47,6 +47,7 @@ FD_STEP = 1e-4
 START_MARGIN = 0.01
 # a search variable this far into its logistic tail has run onto the bound
 SATURATED = 1e-15
+MAX_FIT_LOBES = 16  # lobes of one fit (per channel in Fixed materials): more is no model of a BRDF, and costs minutes
 
 
 
@@ -766,6 +767,13 @@ def restart_guesses(material: AnalyticMaterial) -> list[AnalyticMaterial]:
     return out
 
 
+def check_fit_size(n_lobes: int, where: object | None = None) -> None:
+    """Refuse, up front, a fit of more than MAX_FIT_LOBES lobes (1,000 Ward lobes ran for
+    minutes, an --init of 10⁵ lobes took 10 GB)."""
+    if n_lobes > MAX_FIT_LOBES:
+        raise BRDFLabError(f"a fit of {n_lobes:,} lobes: the lab fits at most {MAX_FIT_LOBES} (Auto climbs to 4)", where)
+
+
 def material_from_lobes(names: list[str], combination: str, n_channels: int) -> AnalyticMaterial:
     """A starting material for `brdflab fit --lobes A,B,...`: model defaults, unit scales;
     a model named more than once starts its lobes apart (its own starts, first to last), so
@@ -773,6 +781,7 @@ def material_from_lobes(names: list[str], combination: str, n_channels: int) -> 
     for every channel."""
     if combination not in ("Linear", "Fixed"):
         raise BRDFLabError(f"combination must be linear or fixed, not {combination!r}")
+    check_fit_size(len(names))
     lobes: list[Lobe] = []
     for name, (j, n) in zip(names, _occurrences(names)):
         model = get_model(name)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
-from brdflab.fitting.lm import FitResult, material_from_lobes
+from brdflab.fitting.lm import FitResult, check_fit_size, material_from_lobes
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.sources.measured import MeasuredTable, RawSamples
 from brdflab.sources.files import is_xml
@@ -28,6 +28,7 @@ def initial_material(lobes: list[str] | None, combination: str, n_channels: int,
             start = doc.material
         else:
             raise BRDFLabError("--init needs an analytic material or a stored fitting", init)
+        check_fit_size(sum(l.channel in (None, 0) for l in start.lobes), init)
         if lobes and [l.model.name for l in start.lobes if l.channel in (None, 0)] != lobes:
             raise BRDFLabError(f"--lobes {','.join(lobes)} differ from the lobes of the initial guess", init)
         if start.n_channels != n_channels:

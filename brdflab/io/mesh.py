@@ -1,5 +1,9 @@
 """Meshes for the object view: loaded through trimesh, checked, with normals and tangents.
 
+Files a mesh names (an OBJ's mtllib, a glTF's buffers) are read from the mesh's folder and
+below only, through the same bounded reads as the mesh (a FIFO there is refused); a PLY's
+header is checked against its body before trimesh reads it.
+
 Tangent frames come from UVs when the mesh has them; otherwise from a constant vector
 projected into the tangent plane (as Kautz et al. do for brushed directions).
 """
@@ -128,9 +132,11 @@ def load_mesh(path: str | os.PathLike) -> Mesh:
     data = read_bounded(path, MAX_MESH_BYTES, "a mesh file")
     if path.suffix.lower() in TEXT_FORMATS:
         data = _utf8(data)
+    if path.suffix.lower() == ".ply":
+        check_ply_header(data, path)
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type=path.suffix.lower()[1:], force="mesh", process=False,
-                              resolver=trimesh.resolvers.FilePathResolver(str(path)))
+                              resolver=_bounded_resolver(path))
     except MemoryError:
         raise BRDFLabError("the mesh is too large for memory", path) from None
     except Exception as e:  # trimesh raises many types for broken files
@@ -147,6 +153,65 @@ def load_mesh(path: str | os.PathLike) -> Mesh:
         return from_arrays(np.asarray(loaded.vertices), np.asarray(loaded.faces), normals, uv, path.name)
     except BRDFLabError as e:
         raise BRDFLabError(str(e).split(": ", 1)[1], path) from None
+
+
+def _bounded_resolver(path: Path):
+    """trimesh's resolver of the files a mesh names (its folder and below), reading them
+    through read_bounded: a FIFO or a device named by an mtllib or a glTF buffer would block
+    or never end."""
+    import trimesh
+
+    class BoundedResolver(trimesh.resolvers.FilePathResolver):
+        def get(self, name: str) -> bytes:
+            for candidate in (name.strip(), name.strip().lstrip("/"), os.path.split(name)[-1]):
+                try:
+                    found = self.absolute(candidate)
+                except ValueError:  # outside the mesh's folder
+                    continue
+                if os.path.lexists(found):
+                    return read_bounded(found, MAX_MESH_BYTES, "a file a mesh names")
+            return super().get(name)  # says why it is not there
+
+    return BoundedResolver(str(path))
+
+
+PLY_FORMATS = ("ascii", "binary_little_endian", "binary_big_endian")
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def check_ply_header(data: bytes, path: Path) -> None:
+    """Refuse a PLY whose header is not version 1.0 of a known format, or whose element counts
+    the body cannot hold: an ASCII body has exactly one line per element, a binary one at least
+    the bytes its counts need (a lying face count made trimesh read whatever was there)."""
+    end = data.find(b"end_header", 0, 1 << 16)
+    if not data.startswith(b"ply") or end < 0:
+        raise BRDFLabError("not a PLY file (no 'ply' ... 'end_header' header in its first 64 KB)", path)
+    body_start = data.find(b"\n", end) + 1 or len(data)
+    fmt, elements = None, []  # (count, bytes of its fixed part)
+    for line in data[:end].decode("ascii", "replace").splitlines()[1:]:
+        words = line.split()
+        if words[:1] == ["format"]:
+            fmt = words[1] if len(words) == 3 and words[1] in PLY_FORMATS and words[2] == "1.0" else "?"
+        elif words[:1] == ["element"] and len(words) == 3 and words[2].isascii() and words[2].isdigit():
+            elements.append([int(words[2]), 0])
+        elif words[:1] == ["element"]:
+            raise BRDFLabError("a PLY element line is not 'element NAME COUNT'", path)
+        elif words[:1] == ["property"] and elements:
+            size = words[2] if words[1:2] == ["list"] and len(words) == 5 else words[1] if len(words) == 3 else ""
+            if size not in _PLY_SIZES:
+                raise BRDFLabError("a PLY property of an unknown type", path)
+            elements[-1][1] += _PLY_SIZES[size]
+    if fmt not in PLY_FORMATS:
+        raise BRDFLabError(f"unsupported PLY format line (the lab reads {', '.join(PLY_FORMATS)} 1.0)", path)
+    body = data[body_start:]
+    if fmt == "ascii":
+        fits = sum(count for count, _ in elements) == sum(1 for line in io.BytesIO(body) if line.strip())
+    else:
+        fits = sum(count * size for count, size in elements) <= len(body)
+    if not fits:
+        raise BRDFLabError("the PLY header's element counts do not match its data (a wrong face or vertex count)",
+                           path)
 
 
 def _utf8(data: bytes) -> bytes:

@@ -7,6 +7,9 @@ u = 0.5 + atan2(d.x, −d.z) / (2π), v = acos(d.y) / π, row 0 at the top.
 from __future__ import annotations
 
 import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,8 +18,11 @@ import numpy as np
 from brdflab.errors import BRDFLabError
 from brdflab.io.bounded import checked_size
 
-MAX_PIXELS = 64 * 1024 * 1024
-MAX_MAP_BYTES = 1 << 30  # MAX_PIXELS of uncompressed float32 RGB is 805 MB
+MAX_PIXELS = 8192 * 4096  # the largest published lat-long maps; checked before decoding (an RLE file of 4 MB can declare 64 M)
+MAX_MAP_BYTES = 1 << 30  # MAX_PIXELS of uncompressed float32 RGB is 403 MB
+# Radiance above this is no real scene (the sun's disk is ~1e9 cd/m²); larger finite values
+# (RGBE exponent 255, float32's max) overflow the renderers' sums into Inf and NaN.
+MAX_RADIANCE = 1e12
 
 
 @dataclass
@@ -102,9 +108,13 @@ def constant(value: float | tuple = 1.0, width: int = 64, height: int = 32) -> E
 # Radiance RGBE
 
 def _rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
-    e = rgbe[..., 3].astype(np.int32)
-    scale = np.where(e > 0, np.ldexp(1.0, e - 136), 0.0).astype(np.float32)
-    return rgbe[..., :3].astype(np.float32) * scale[..., None]
+    """RGBE → float32 RGB, a band of rows at a time (float64 temporaries for 33 M texels are GBs)."""
+    scale_of = np.where(np.arange(256) > 0, np.ldexp(1.0, np.arange(256) - 136), 0.0).astype(np.float32)
+    out = np.empty(rgbe.shape[:-1] + (3,), np.float32)
+    for y in range(0, rgbe.shape[0], 256):
+        band = rgbe[y:y + 256]
+        np.multiply(band[..., :3], scale_of[band[..., 3]][..., None], out=out[y:y + 256], dtype=np.float32)
+    return out
 
 
 def read_hdr(path: str | os.PathLike) -> np.ndarray:
@@ -129,20 +139,21 @@ def read_hdr(path: str | os.PathLike) -> np.ndarray:
         if line.startswith(b"FORMAT="):
             fmt = line[7:]
     if fmt not in (None, b"32-bit_rle_rgbe"):
-        raise BRDFLabError(f"unsupported format {fmt.decode(errors='replace')}", path)
+        raise BRDFLabError("unsupported FORMAT (the lab reads 32-bit_rle_rgbe)", path)
     end = data.find(b"\n", pos)
     if end < 0:
         raise BRDFLabError("truncated: no resolution line", path)
     res = data[pos:end].split()
     pos = end + 1
     if len(res) != 4 or res[0] not in (b"-Y", b"+Y") or res[2] not in (b"+X", b"-X"):
-        raise BRDFLabError(f"unsupported resolution line {b' '.join(res).decode(errors='replace')!r}", path)
+        raise BRDFLabError("unsupported resolution line (the lab reads -Y H +X W and its flips)", path)
     try:
         h, w = int(res[1]), int(res[3])
     except ValueError:
         raise BRDFLabError("bad resolution line", path) from None
     if h < 1 or w < 1 or h * w > MAX_PIXELS:
-        raise BRDFLabError(f"unsupported image size {w}×{h}", path)
+        raise BRDFLabError(f"the declared image size is outside 1..{MAX_PIXELS:,} texels (8192×4096), what the "
+                           "lab reads", path)
     body = np.frombuffer(data, np.uint8, offset=pos)
     out = np.empty((h, w, 4), np.uint8)
     i = 0
@@ -195,7 +206,7 @@ def read_exr(path: str | os.PathLike) -> np.ndarray:
     if not path.is_file():
         raise BRDFLabError("no such file", path)
     try:
-        with OpenEXR.File(str(path)) as f:
+        with _native_output_silenced(), OpenEXR.File(str(path)) as f:
             channels = f.channels()
             if "RGB" in channels:
                 img = np.asarray(channels["RGB"].pixels, np.float32)
@@ -214,6 +225,26 @@ def read_exr(path: str | os.PathLike) -> np.ndarray:
     if img.ndim != 3 or img.shape[0] < 1 or img.shape[1] < 1:
         raise BRDFLabError(f"unexpected image shape {img.shape}", path)
     return np.ascontiguousarray(img)
+
+
+@contextmanager
+def _native_output_silenced() -> Iterator[None]:
+    """Send what native code writes to the process's stdout and stderr to /dev/null while the
+    block runs: OpenEXR prints its own lines about a corrupt file (on stdout and stderr) before
+    it raises, and the lab says what went wrong in one line of its own (stdout stays JSON)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 1)
+    os.dup2(null, 2)
+    try:
+        yield
+    finally:
+        for fd, copy in zip((1, 2), saved):
+            os.dup2(copy, fd)
+            os.close(copy)
+        os.close(null)
 
 
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
@@ -277,6 +308,9 @@ def read_map(path: Path) -> np.ndarray:
     bad = ~np.isfinite(data)
     if bad.any():
         raise BRDFLabError(f"{int(bad.sum())} texel values are NaN or Inf", path)
+    if data.max(initial=0.0) > MAX_RADIANCE:
+        raise BRDFLabError(f"texel values above {MAX_RADIANCE:g}, beyond any real scene (they would overflow "
+                           "the renderers' sums)", path)
     return np.maximum(data, 0.0) if (data < 0).any() else data
 
 
