@@ -16,6 +16,7 @@ import os
 import resource
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -136,6 +137,120 @@ def build_corpus(d: Path) -> None:
     (d / "no_charset").mkdir()
     (d / "no_charset" / "charset_normalizer.py").write_text("raise ImportError('not installed')\n")
     (d / "no_charset" / "chardet.py").write_text("raise ImportError('not installed')\n")
+    build_corpus_of_issue_30(d)
+
+
+PHONG = '<ScalingFactors channel0="0.1" channel1="0.1" channel2="0.1"/>\n<Lobe><Model>BlinnPhong</Model><Type>Isotropic</Type>' \
+        '<Parameters Exponent="{e}"/></Lobe>'
+SHADOW = b"root:$6$Zx8/abcdefgh:19000:0:99999:7:::\n" * 4  # what /etc/shadow starts with
+SHADOW_DIMS = tuple(str(int(v)) for v in np.frombuffer(SHADOW[:12], "<i4"))  # what the header error printed
+
+
+def _declared(text: str, encoding: str, doctype: str) -> bytes:
+    """`text` (a material) in `encoding`, with its declaration naming it and `doctype` after it."""
+    body = text.split("?>", 1)[1]
+    name = {"utf-16": "UTF-16", "utf-32": "UTF-32", "utf-16-be": "UTF-16BE"}[encoding]
+    return f'<?xml version="1.0" encoding="{name}"?>\n{doctype}{body}'.encode(encoding)
+
+
+def _rle_bomb(path: Path, width: int, height: int) -> None:
+    """A Radiance HDR of width × height whose every scanline is 4 runs per channel: 4 MB on
+    disk for 8000 × 8000 texels."""
+    runs = bytearray()
+    for _ in range(4):
+        left = width
+        while left:
+            n = min(127, left)
+            runs += bytes([128 + n, 128])
+            left -= n
+    line = bytes([2, 2, width >> 8, width & 255]) + bytes(runs)
+    path.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + f"-Y {height} +X {width}\n".encode() + line * height)
+
+
+def _huge_hdr(path: Path) -> None:
+    """A flat 64 × 32 RGBE map whose texels have exponent 255: finite values near 1e38."""
+    texels = np.full((32, 64, 4), 255, np.uint8)
+    path.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 32 +X 64\n" + texels.tobytes())
+
+
+def build_corpus_of_issue_30(d: Path) -> None:
+    """Hostile files and faults of issue 30 §4 (security, saves, nonsense, unbounded, messages)."""
+    w = lambda name, text: (d / name).write_text(text, encoding="utf-8")
+    phong = material(PHONG.format(e="120"))
+    entity = '<!DOCTYPE BRDF [<!ENTITY e "7">]>\n'
+    for enc in ("utf-16", "utf-32", "utf-16-be"):
+        (d / f"entity_{enc}.xml").write_bytes(_declared(phong.replace('"120"', '"&e;120"'), enc, entity))
+    (d / "system_utf-16.xml").write_bytes(_declared(phong, "utf-16", '<!DOCTYPE BRDF SYSTEM "http://x/brdf.dtd">\n'))
+    (d / "public_utf-32.xml").write_bytes(_declared(phong, "utf-32", '<!DOCTYPE BRDF PUBLIC "-//x//DTD" "b.dtd">\n'))
+    (d / "param_entity_utf-16.xml").write_bytes(_declared(phong, "utf-16", '<!DOCTYPE BRDF [<!ENTITY % p "x">]>\n'))
+    # data files named inside a material: the material's folder and below, or vouched for by a checksum
+    (d / "outside").mkdir()
+    (d / "outside" / "shadow").write_bytes(SHADOW)
+    (d / "mat").mkdir()
+    w("mat/names_shadow.xml", measured("../outside/shadow", "MERLBRDFDatabase"))
+    w("mat/names_shadow_bad_sum.xml", measured("../outside/shadow", "MERLBRDFDatabase", "0" * 64))
+    (d / "mat" / "link.slice").symlink_to(d / "ok.slice")
+    w("mat/names_link_out.xml", measured("link.slice", "BivariateSlice"))
+    w("mat/names_inside.xml", measured("../mat/here.slice", "BivariateSlice"))  # out and back in
+    (d / "mat" / "here.slice").write_bytes(slice_bytes(0.05))
+    sha = hashlib.sha256(slice_bytes(0.05)).hexdigest()
+    w("mat/names_outside_vouched.xml", measured("../ok.slice", "BivariateSlice", sha))  # as the lab saves one
+    (d / "bad_header.binary").write_bytes(SHADOW[:12] + b"\0" * (3 * 90 * 90 * 180 * 8))
+    # saves: through links, never over what is not a regular file
+    shutil.copy(FIG2, d / "real.xml")
+    (d / "link.xml").symlink_to("real.xml")
+    try:  # a character device like /dev/full (root only), else a FIFO: both must be refused
+        os.mknod(d / "device.xml", 0o666 | stat.S_IFCHR, os.makedev(1, 7))
+    except OSError:
+        os.mkfifo(d / "device.xml")
+    # accepted nonsense
+    w("fullwidth_channels.xml", material(linear_lobe(), n_channels="\uff13"))
+    w("fullwidth_scale.xml", material(linear_lobe('channel0="\uff11.\uff15" channel1="0.1" channel2="0.1"')))
+    w("underscore.xml", material(PHONG.format(e="4_0")))
+    lobe = "<Lobe><Model>Lambertian</Model><Type>Isotropic</Type><Parameters/></Lobe>"
+    w("dup_model.xml", material(linear_lobe().replace("<Model>Lambertian</Model>",
+                                                      "<Model>Lambertian</Model><Model>Ward</Model>")))
+    w("dup_parameters.xml", material(PHONG.format(e="120").replace("</Lobe>", '<Parameters Exponent="5"/></Lobe>')))
+    w("dup_combination.xml", material(linear_lobe()).replace("</LobeCombination>",
+                                                              "</LobeCombination><LobeCombination>Fixed</LobeCombination>"))
+    w("dup_name.xml", material(linear_lobe()).replace("</Name>", "</Name><Name>another</Name>"))
+    w("comment_in_model.xml", material(linear_lobe().replace(lobe, lobe.replace(
+        "<Model>Lambertian", "<Model><!-- diffuse -->Lambertian<!-- base --> "))))
+    rows = lambda th, value: "\n".join(f"{th} 0.1 0.4 3.0 {value} 0.2 0.2" for _ in range(8))
+    w("raw_1e300.txt", rows("1e300", "0.2"))
+    w("raw_negative.txt", rows("0.3", "-0.5"))
+    w("raw_below.txt", rows("2.0", "0.2"))
+    w("raw_degrees.txt", rows("45", "0.2"))
+    np.full(21 + 180 * 90 * 90 * 3, -1.0, "<f4").tofile(d / "negative.carpaint")
+    ply = ("ply\nformat {fmt} 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+           "element face {faces}\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+           "3 0 1 2\n3 0 2 3\n3 0 3 1\n3 1 3 2\n")
+    w("lying_faces.ply", ply.format(fmt="ascii", faces="1000000"))
+    w("fewer_faces.ply", ply.format(fmt="ascii", faces="2"))
+    w("version.ply", ply.format(fmt="ascii", faces="4").replace("ascii 1.0", "ascii 9.9"))
+    w("good.ply", ply.format(fmt="ascii", faces="4"))
+    # unbounded
+    _rle_bomb(d / "bomb.hdr", 8000, 8000)
+    _huge_hdr(d / "huge.hdr")
+    os.mkfifo(d / "fifo.mtl")
+    w("mtllib_fifo.obj", "mtllib fifo.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\n")
+    os.mkfifo(d / "fifo.bin")
+    w("buffer_fifo.gltf", json.dumps({
+        "asset": {"version": "2.0"}, "buffers": [{"uri": "fifo.bin", "byteLength": 48}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 12}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "max": [1, 1, 0], "min": [0, 0, 0]},
+                      {"bufferView": 1, "componentType": 5125, "count": 3, "type": "SCALAR"}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}], "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}], "scene": 0}))
+    # messages
+    from brdflab.lighting.envmap import write_exr
+
+    write_exr(d / "whole.exr", np.ones((16, 32, 3), np.float32))
+    whole = (d / "whole.exr").read_bytes()
+    (d / "corrupt.exr").write_bytes(whole[: len(whole) // 2] + b"\0" * 10)  # OpenEXR printed 2 lines of its own
+    w("long_name.xml", measured("x" * 5000 + ".slice", "BivariateSlice"))
+    (d / os.fsdecode(b"caf\xe9.xml")).write_bytes(b"<BRDF>")  # a Latin-1 name on a UTF-8 system
+    (d / "new\nline.xml").write_text("<BRDF>")
 
 
 @dataclass
@@ -148,6 +263,7 @@ class Case:
     names: str | None = None  # the file the error line must name (default: the first argument)
     read: tuple[str, ...] = ()  # text files the command reads: none of their lines may be echoed
     hide_charset: bool = False
+    leaks: tuple[str, ...] = ()  # what a file holds that the error must not print
 
     @property
     def named(self) -> str:
@@ -195,12 +311,12 @@ CASES: dict[str, Case] = {
     "xml-names-fifo": Case(E("names_fifo.xml"), words=("not a regular file",), names="fifo.slice"),
     "merl-directory": Case(["info", "dir.binary"], words=("not a regular file", "directory")),
     # numbers that overflow: one line, no RuntimeWarning, never Infinity in JSON
-    "merl-1e308": Case(["info", "merl_1e308.binary", "--json"], words=("1e+308",)),
-    "merl-1e308-fit": Case(["fit", "merl_1e308.binary", *FIT], words=("1e+308",)),
+    "merl-1e308": Case(["info", "merl_1e308.binary", "--json"], words=("beyond",), leaks=("1e+308",)),
+    "merl-1e308-fit": Case(["fit", "merl_1e308.binary", *FIT], words=("beyond",), leaks=("1e+308",)),
     "merl-minus-1e308": Case(["info", "merl_minus_1e308.binary", "--json"], status=0),
-    "slice-3e38": Case(["info", "slice_3e38.slice", "--json"], words=("3e+38",)),
-    "slice-3e38-fit": Case(["fit", "slice_3e38.slice", *FIT], words=("3e+38",)),
-    "slice-3e38-render": Case(R("slice_3e38.slice"), words=("3e+38",)),
+    "slice-3e38": Case(["info", "slice_3e38.slice", "--json"], words=("beyond",), leaks=("3e+38",)),
+    "slice-3e38-fit": Case(["fit", "slice_3e38.slice", *FIT], words=("beyond",), leaks=("3e+38",)),
+    "slice-3e38-render": Case(R("slice_3e38.slice"), words=("beyond",), leaks=("3e+38",)),
     "mesh-1e308": Case(R(str(FIG2), "--mesh", "huge_coords.obj"), status=0),  # large, but a mesh
     "mesh-1e309": Case(R(str(FIG2), "--mesh", "inf_coords.obj"), names="inf_coords.obj", words=("nan or inf",),
                        read=("inf_coords.obj",)),
@@ -241,6 +357,75 @@ CASES: dict[str, Case] = {
                               names="pairs_sparse.npy", words=("pairs",)),
     "pairs-objects": Case(["eval", str(FIG2), "--pairs", "pairs_objects.npy", "--out", "o.npy"],
                           names="pairs_objects.npy"),
+    # --- issue 30 §4 ---
+    # security: DOCTYPE and entities judged on the parsed document, in every encoding
+    "entity-utf-16": Case(["info", "entity_utf-16.xml"], words=("entity",)),
+    "entity-utf-32": Case(["info", "entity_utf-32.xml"], words=("entity",)),
+    "entity-utf-16-be": Case(["info", "entity_utf-16-be.xml"], words=("entity",)),
+    "system-doctype-utf-16": Case(["info", "system_utf-16.xml"], words=("doctype",)),
+    "public-doctype-utf-32": Case(["info", "public_utf-32.xml"], words=("doctype",)),
+    "parameter-entity-utf-16": Case(["info", "param_entity_utf-16.xml"], words=("entity",)),
+    # data files a material names: outside its folder only when its checksum vouches for it
+    "names-shadow": Case(E("mat/names_shadow.xml"), names="shadow", words=("outside the material's folder",),
+                         leaks=SHADOW_DIMS),
+    "names-shadow-bad-checksum": Case(E("mat/names_shadow_bad_sum.xml"), names="shadow",
+                                      words=("outside the material's folder",), leaks=SHADOW_DIMS),
+    "names-link-out": Case(E("mat/names_link_out.xml"), names="link.slice", words=("outside the material's folder",)),
+    "names-inside": Case(E("mat/names_inside.xml"), status=0),
+    "names-outside-vouched": Case(E("mat/names_outside_vouched.xml"), status=0),
+    "merl-header-not-echoed": Case(["info", "bad_header.binary"], words=("dimensions",), leaks=SHADOW_DIMS),
+    # saves: a link is written through, a device or FIFO refused
+    "out-symlink": Case(["fit", "real.xml", *FIT, "--out", "link.xml"], status=0),
+    "out-device": Case(["fit", str(FIG2), *FIT, "--out", "device.xml"], names="device.xml",
+                       words=("not a regular file",)),
+    "batch-out-read-only": Case(["batch", "ok.slice", "--lobes", "Lambertian", "--out", "/sys/brdflab-hostile"],
+                                names="/sys/brdflab-hostile", words=("cannot write",)),
+    # accepted nonsense
+    "fullwidth-digit-integer": Case(["info", "fullwidth_channels.xml"], words=("nchannels",)),
+    "fullwidth-digit-number": Case(["info", "fullwidth_scale.xml"], words=("not a number",)),
+    "underscore-number": Case(["info", "underscore.xml"], words=("exponent", "not a number")),
+    "duplicate-model": Case(["info", "dup_model.xml"], words=("second <model>",)),
+    "duplicate-parameters": Case(["info", "dup_parameters.xml"], words=("second <parameters>",)),
+    "duplicate-lobecombination": Case(["info", "dup_combination.xml"], words=("second <lobecombination>",)),
+    "duplicate-name": Case(["info", "dup_name.xml"], words=("second <name>",)),
+    "comment-in-model": Case(["info", "comment_in_model.xml", "--json"], status=0),
+    "raw-angle-1e300": Case(["info", "raw_1e300.txt"], words=("angle",)),
+    "raw-angle-degrees": Case(["info", "raw_degrees.txt"], words=("radians",)),
+    "raw-negative": Case(["info", "raw_negative.txt"], words=("negative",)),
+    "raw-below-horizon": Case(["info", "raw_below.txt"], words=("horizon",)),
+    "carpaint-all-negative": Case(["info", "negative.carpaint"], words=("negative",)),
+    "ply-lying-face-count": Case(R(str(FIG2), "--mesh", "lying_faces.ply"), names="lying_faces.ply",
+                                 words=("count",)),
+    "ply-fewer-faces": Case(R(str(FIG2), "--mesh", "fewer_faces.ply"), names="fewer_faces.ply", words=("count",)),
+    "ply-format-version": Case(R(str(FIG2), "--mesh", "version.ply"), names="version.ply", words=("format",)),
+    "ply-good": Case(R(str(FIG2), "--mesh", "good.ply"), status=0),
+    # unbounded: capped up front, in one line
+    "hdr-rle-bomb": Case(R(str(FIG2), "--mode", "fis", "--env", "bomb.hdr"), names="bomb.hdr", words=("texels",)),
+    "render-size-8192": Case(R(str(FIG2))[:-2] + ["--out", "o.png", "--size", "8192,8192"], names="--size",
+                             words=("pixels",)),
+    "mtllib-fifo": Case(R(str(FIG2), "--mesh", "mtllib_fifo.obj"), status=0),  # the mesh, without its materials
+    "gltf-buffer-fifo": Case(R(str(FIG2), "--mesh", "buffer_fifo.gltf"), names="buffer_fifo.gltf",
+                             words=("not a regular file",)),
+    "init-20000-lobes": Case(["fit", "ok.slice", "--init", "lobes_20000.xml", "--max-iterations", "1"],
+                             names="lobes_20000.xml", words=("at most",)),
+    "fit-1000-ward-lobes": Case(["fit", "ok.slice", "--lobes", ",".join(["Ward"] * 1000), "--max-iterations", "1"],
+                                names="", words=("1,000 lobes",)),
+    "auto-1000-models": Case(["fit", "ok.slice", "--auto", "--models", ",".join(["Ward"] * 1000)], names="",
+                             words=("1,000 models",)),
+    "auto-repeated-model": Case(["fit", "ok.slice", "--auto", "--models", "Ward,BlinnPhong,Ward"], names="",
+                                words=("ward more than once",)),
+    "envmap-huge-values-fis": Case(R(str(FIG2), "--mode", "fis", "--env", "huge.hdr"), names="huge.hdr",
+                                   words=("beyond",)),
+    "envmap-huge-values-sh": Case(R(str(FIG2), "--mode", "sh", "--env", "huge.hdr"), names="huge.hdr",
+                                  words=("beyond",)),
+    "envmap-huge-values-prefiltered": Case(R(str(FIG2), "--mode", "prefiltered", "--env", "huge.hdr"),
+                                           names="huge.hdr", words=("beyond",)),
+    # messages: one line, ours
+    "exr-corrupt": Case(R(str(FIG2), "--mode", "fis", "--env", "corrupt.exr"), names="corrupt.exr",
+                        words=("openexr",)),
+    "name-too-long": Case(E("long_name.xml"), names="xxxxxxxx", words=("missing",)),
+    "file-name-not-utf8": Case(["info", os.fsdecode(b"caf\xe9.xml")], names="caf\\xe9.xml"),
+    "file-name-newline": Case(["info", "new\nline.xml"], names="new\\nline.xml"),
 }
 
 
@@ -311,8 +496,24 @@ def test_hostile_case(results, name):
     for word in case.words:
         assert word in r.stderr.lower(), where
     assert not _echoed_lines(r.stderr, folder, case.read), where
+    assert not [leak for leak in case.leaks if leak in r.stderr], where
     if "--json" in case.argv and r.returncode == 0:
         _strict_json(r.stdout.strip().splitlines()[-1])
+
+
+def test_saves_write_through_links_and_never_over_special_files(results):
+    """`--out link.xml` updated the file the link names (the link stays a link); `--out` on a
+    device or FIFO left it as it was (a rename put a regular file in its place)."""
+    folder, _ = results
+    assert (folder / "link.xml").is_symlink() and os.readlink(folder / "link.xml") == "real.xml"
+    assert len(load_document(folder / "real.xml").fittings) == 1
+    assert not (folder / "device.xml").is_file() and (folder / "device.xml").exists()
+
+
+def load_document(path: Path):
+    from brdflab.io.xmlio import load
+
+    return load(path)
 
 
 def test_large_files_report_what_was_capped(results):
