@@ -2,13 +2,31 @@
 // is its NumPy twin). Per lobe: albedo(cos θo) × (share · irradiance/π + (1 − share) ·
 // the stack blended between two roughness layers at the lobe's direction: axis ∘ wo, pulled
 // toward n for rough lobes, Lagarde & de Rousiers 2014).
-// Irradiance: one fetch; per lobe: two albedo texels, and two stack fetches if it is glossy.
+// Irradiance: one fetch; per lobe: two albedo texels, and two stack fetches per lookup if it is
+// glossy (one lookup; an anisotropic lobe's: PREF_TAPS around normals spread along its longer axis).
+// The map's brightest texels are not in the stack: each is a light that the material itself
+// is evaluated at (brdflab/lighting/prefilter.bright_lights), as the quadrature does.
 uniform sampler2DArray u_pref_stack;   // layer 0: irradiance; then α layers per kernel
-uniform sampler2D u_pref_albedo;       // row k: lobe k's directional albedo (RGB) over cos θo
+uniform sampler2D u_pref_albedo;       // rows k·PREF_PHIS + j: lobe k's directional albedo (RGB) over cos θo at φo = 2π j / PREF_PHIS
 uniform float u_pref_albedo_size;      // entries per row, at cos θo = i / (size − 1)
 uniform vec4 u_pref_layers[N_LOBES];   // (lower layer, upper layer, weight of the upper, diffuse share)
 uniform vec4 u_pref_axis[N_LOBES];     // (axis, w): the lobe looks along normalize(mix(n, normalize(axis ∘ wo), w))
+uniform vec3 u_pref_taps[N_LOBES * PREF_TAPS];  // lobe k's lookups: (slope along t, along b, weight); weight 0: none
 uniform float u_pref_rotation;         // the map's turn about +Y, radians
+uniform vec3 u_pref_light_dir[PREF_LIGHTS];    // the lights' directions in the map's frame
+uniform vec3 u_pref_light_power[PREF_LIGHTS];  // their radiance × solid angle
+
+// Σ over the lights of f(wi, wo) cos θi × power
+vec3 prefiltered_lights(mat3 to_world, vec3 wo) {
+    float c = cos(u_pref_rotation), s = sin(u_pref_rotation);
+    vec3 color = vec3(0.0);
+    for (int j = 0; j < PREF_LIGHTS; j++) {
+        vec3 m = u_pref_light_dir[j];
+        vec3 wi = vec3(c * m.x - s * m.z, m.y, s * m.x + c * m.z) * to_world;  // env_uv's turn undone, to local
+        if (wi.z > 0.0) color += material_eval(wi, wo) * wi.z * u_pref_light_power[j];
+    }
+    return color;
+}
 
 vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
     vec3 irradiance = texture(u_pref_stack, vec3(env_uv(n, u_pref_rotation), 0.0)).rgb;
@@ -16,18 +34,29 @@ vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
     float x = clamp(wo.z, 0.0, 1.0) * (u_pref_albedo_size - 1.0);
     int i0 = min(int(x), int(u_pref_albedo_size) - 2);
     float f = x - float(i0);
-    vec3 color = vec3(0.0);
+    float y = fract((length(wo.xy) > 1e-7 ? atan(wo.y, wo.x) : 0.0) / (2.0 * PI)) * float(PREF_PHIS);
+    int j0 = min(int(y), PREF_PHIS - 1);
+    int j1 = (j0 + 1) % PREF_PHIS;
+    float g = y - float(j0);
+    vec3 color = prefiltered_lights(to_world, wo);
     for (int k = 0; k < N_LOBES; k++) {
         vec4 layers = u_pref_layers[k];
-        vec3 albedo = mix(texelFetch(u_pref_albedo, ivec2(i0, k), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, k), 0).rgb, f);
+        int r0 = k * PREF_PHIS + j0, r1 = k * PREF_PHIS + j1;
+        vec3 albedo = mix(mix(texelFetch(u_pref_albedo, ivec2(i0, r0), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, r0), 0).rgb, f),
+                          mix(texelFetch(u_pref_albedo, ivec2(i0, r1), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, r1), 0).rgb, f), g);
         vec3 light = layers.w * irradiance / PI;
-        if (layers.w < 1.0) {
-            vec3 axis = stable_axis(u_pref_axis[k].xyz * wo);
-            vec3 d = stable_axis(mix(vec3(0.0, 0.0, 1.0), axis, u_pref_axis[k].w));
+        for (int j = 0; j < PREF_TAPS && layers.w < 1.0; j++) {
+            vec3 tap = u_pref_taps[k * PREF_TAPS + j];
+            if (tap.z <= 0.0) break;
+            // the lobe's axis ∘ wo; a tilted tap (an anisotropic lobe's): wo mirrored about its normal
+            vec3 normal = normalize(vec3(-tap.xy, 1.0));
+            vec3 axis = tap.xy == vec2(0.0) ? stable_axis(u_pref_axis[k].xyz * wo)
+                                             : stable_axis(reflect_about(wo, normal));
+            vec3 d = stable_axis(mix(normal, axis, u_pref_axis[k].w));
             vec2 uv = env_uv(to_world * d, u_pref_rotation);
             vec3 glossy = mix(texture(u_pref_stack, vec3(uv, layers.x)).rgb,
                               texture(u_pref_stack, vec3(uv, layers.y)).rgb, layers.z);
-            light += (1.0 - layers.w) * glossy;
+            light += (1.0 - layers.w) * tap.z * glossy;
         }
         color += u_lobe_scale[k] * albedo * light;
     }

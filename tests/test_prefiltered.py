@@ -50,20 +50,23 @@ def render(renderer, env, mat, size=SIZE):
 
 
 def test_stack_layers_are_the_texel_quadrature():
-    """The FFT convolution equals the direct sum over texels of L Ω K(d·t) (normalised)."""
+    """The FFT convolution equals the direct sum over texels of L Ω K(d·t) (normalised), L the
+    map without its brightest texels (they are the stack's lights)."""
     rng = np.random.default_rng(3)
     env = EnvironmentMap(rng.gamma(0.5, 1.0, (16, 32, 3)).astype(np.float32))
     stack = prefilter.build_stack(env)
+    dimmed, lights = prefilter.bright_lights(env)
+    np.testing.assert_array_equal(stack.lights, lights)
     d, solid = env.texel_directions()
     dirs, omega = d.reshape(-1, 3), np.broadcast_to(solid, (16, 32)).ravel()
-    radiance = env.data.reshape(-1, 3) * omega[:, None]
+    radiance = dimmed.data.reshape(-1, 3) * omega[:, None]
     for row, col in ((0, 5), (7, 31), (12, 17)):
         c = np.clip(dirs @ d[row, col], -1.0, 1.0)
         np.testing.assert_allclose(stack.irradiance()[row, col], np.maximum(c, 0) @ radiance, rtol=1e-4)
         for kernel, index in (("beckmann", 6), ("ggx", 11)):
             k = prefilter.specular_kernel(kernel, prefilter.ALPHAS[index])(c)
             np.testing.assert_allclose(stack.layer(kernel, index)[row, col], k @ radiance / (k @ omega), rtol=1e-4)
-        np.testing.assert_array_equal(stack.layer("ggx", 0), env.data)  # α = 0: the map itself
+        np.testing.assert_array_equal(stack.layer("ggx", 0), dimmed.data)  # α = 0: the map itself
 
 
 def test_the_stack_is_built_once_per_map(renderer):
@@ -87,13 +90,20 @@ def test_layer_blend_brackets_the_roughness():
 
 
 def test_the_gpu_draws_what_its_numpy_twin_computes(renderer):
-    """shaders/prefiltered.glsl against lighting/split_sum.prefiltered_image, every kind of lobe."""
-    env = EnvironmentMap(np.random.default_rng(2).gamma(0.7, 1.0, (32, 64, 3)).astype(np.float32))
+    """shaders/prefiltered.glsl against lighting/split_sum.prefiltered_image, every kind of lobe
+    (anisotropic ones' taps and albedo over φo included) under a map with a sun (the lights),
+    turned by 45° on the GPU against the map's columns turned in NumPy."""
+    data = np.random.default_rng(2).gamma(0.7, 1.0, (32, 64, 3)).astype(np.float32)
+    data[10, 20] = 5000.0
     mat = material(Lobe.create("Lambertian", [0.1, 0.2, 0.3]), Lobe.create("Phong", [0.3] * 3, Exponent=40.0),
                    Lobe.create("LafortuneIso", [0.2] * 3, Cxy=0.6, Cz=0.5, Exponent=8.0),
-                   Lobe.create("Strauss", [0.5] * 3, smoothness=0.7))
-    img = render(renderer, env, mat, 32)
-    assert relative_rmse(img, prefiltered_image(mat, env, 32, 32), sphere_view(32, 32).inside) < 1e-4
+                   Lobe.create("Strauss", [0.5] * 3, smoothness=0.7), Lobe.create("Ward", [0.3] * 3, ax=0.05, ay=0.3),
+                   Lobe.create("Principled", [1.0] * 3, roughness=0.4, anisotropic=0.8))
+    inside = sphere_view(32, 32).inside
+    img = render(renderer, EnvironmentMap(data), mat, 32)
+    assert relative_rmse(img, prefiltered_image(mat, EnvironmentMap(data), 32, 32), inside) < 1e-4
+    turned = renderer.render(RenderSettings(mode="prefiltered", width=32, height=32, env_rotation=45.0))
+    assert relative_rmse(turned, prefiltered_image(mat, EnvironmentMap(np.roll(data, 8, axis=1)), 32, 32), inside) < 1e-4
 
 
 @needs_shared("envmaps", "forest.exr")

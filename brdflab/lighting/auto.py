@@ -27,6 +27,7 @@ import numpy as np
 from brdflab.errors import BRDFLabError
 from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
 from brdflab.lighting.envmap import EnvironmentMap
+from brdflab.lighting.prefilter import LIGHTS
 
 DEFAULT_TOLERANCE = 0.02
 SH_ORDERS = (2, 3, 4, 6, 8)
@@ -113,8 +114,8 @@ def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candid
     from brdflab.lighting.auto_twins import fis_errors, mis_errors, view_pilot
 
     view = view_pilot(source, proxy, env)
-    out = [Candidate("prefiltered", None, prefiltered_error(proxy, env, view), FRAME_COST_MS["prefiltered"](None),
-                     "split sum: lobe shape at n = v, equivalent roughness")]
+    out = [Candidate("prefiltered", None, prefiltered_error(source, proxy, env, view), FRAME_COST_MS["prefiltered"](None),
+                     f"split sum: lobe shape at n = v, equivalent roughness; the {LIGHTS} brightest texels exact")]
     for order in SH_ORDERS:
         truncated = truncation_error(pilot, order)
         err = float(np.hypot(truncated, SH_TABLE_ERROR))
@@ -138,13 +139,14 @@ def truncation_error(pilot: Pilot, order: int) -> float:
     return pilot.relative_rmse(np.maximum(pilot.estimate(approx), 0.0))
 
 
-def prefiltered_error(proxy, env: EnvironmentMap, view) -> float:
+def prefiltered_error(source, proxy, env: EnvironmentMap, view) -> float:
     """The split sum's error over the view: the renderer's NumPy twin drawing `proxy` (a
     measured source's fitted lobes, as the renderer does) with the renderer's own stack of
-    the map, at the FIS pilot's pixels against their converged values (`auto_twins.ViewPilot`).
+    the map, and `source` itself at the stack's lights (as the renderer evaluates its table
+    there), at the FIS pilot's pixels against their converged values (`auto_twins.ViewPilot`).
     On a 64 × 32 copy of the map at the 9² pixels it read 2.7 % for Blinn–Phong n = 1000
     under the sunset, where the render is 1.6 % off."""
     from brdflab.lighting.prefilter import prefiltered_stack
     from brdflab.lighting.split_sum import prefiltered_pixels
 
-    return view.error(prefiltered_pixels(proxy, prefiltered_stack(env), view.pixels.frames))
+    return view.error(prefiltered_pixels(proxy, prefiltered_stack(env), view.pixels.frames, lit=source))

@@ -67,11 +67,11 @@ def environment_image(source, env: EnvironmentMap, width: int, height: int, chun
     for s in range(0, len(pix), chunk):
         rows, cols = pix[s:s + chunk, 0], pix[s:s + chunk, 1]
         n, t, b = view.normal[rows, cols], view.tangent[rows, cols], view.bitangent[rows, cols]
-        out[rows, cols] = _by_texel_centres(source, d, weight, (t, b, n), wo_all[rows, cols])
+        out[rows, cols] = by_texel_centres(source, d, weight, (t, b, n), wo_all[rows, cols])
     return out
 
 
-def _by_texel_centres(source, d: np.ndarray, weight: np.ndarray, frame: tuple, wo: np.ndarray,
+def by_texel_centres(source, d: np.ndarray, weight: np.ndarray, frame: tuple, wo: np.ndarray,
                       keep: np.ndarray | None = None) -> np.ndarray:
     """Σ over texels of f(ωt, wo) max(0, n·ωt) · radiance·solid angle, per pixel (pixels, 3):
     texel directions d (texels, 3), weight (texels, 3), the pixels' frames (t, b, n) and views
@@ -113,7 +113,7 @@ def refined_environment_image(source, env: EnvironmentMap, width: int, height: i
         wo = np.stack([t @ z, b @ z, n @ z], axis=-1)  # (pixels, 3), local
         mirror = 2.0 * (n @ z)[:, None] * n - z  # world
         near = (d @ mirror.T) >= cos_near  # (texels, pixels)
-        total = _by_texel_centres(source, d, weight, (t, b, n), wo, ~near)  # the near ones left out
+        total = by_texel_centres(source, d, weight, (t, b, n), wo, ~near)  # the near ones left out
         # the near texels, part by part: (pairs, k, k) sub-texel directions and solid angles
         texel, pixel = np.nonzero(near)
         row, col = np.divmod(texel, w)

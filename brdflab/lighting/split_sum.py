@@ -2,7 +2,7 @@
 where the first is looked up.
 
 ∫ L(ω) f_k(ω, wo) cos θ dω ≈ A_k(cos θo) · L̄_k, where A_k is the lobe's directional albedo
-(tabulated over cos θo by importance sampling, `material/albedo.lobe_albedo`: right for every
+(tabulated over cos θo, and φo for anisotropic lobes, by importance sampling, `material/albedo.lobe_albedo`: right for every
 model at every view, not only GGX's) and L̄_k the prefiltered radiance: the irradiance / π for
 diffuse lobes, else the stack at the lobe's direction (axis ∘ wo) and equivalent roughness
 (`LobeModel.split_sum`). What is approximated: the lobe's shape is the one it has at normal
@@ -10,8 +10,11 @@ view around that direction (n = v = r; the direction is pulled toward n for roug
 Frostbite does, Lagarde & de Rousiers 2014 — the cosine and the horizon pull the real lobe's
 light there), so the stretching and off-specular shift of real
 lobes at grazing views, and the horizon's clipping of the lobe, are lost; the lobe's shape
-is a Beckmann or GGX kernel of matched width; anisotropic lobes become isotropic ones of the
-same solid angle. Energy is right at every view (the albedo factor); where it goes is not.
+is a Beckmann or GGX kernel of matched width; an anisotropic lobe is TAPS lookups with the
+kernel of its shorter width around normals spread along its longer axis (`models/base.anisotropic_split`),
+and its albedo is tabulated over the view's azimuth too. Energy is right at every view (the
+albedo factor); where it goes is not. The map's brightest texels are not in the stack: they are
+lights at which the material itself is evaluated (`prefilter.bright_lights`), as the quadrature does.
 
 `prefiltered_image` is the NumPy twin of the renderer's shader (shaders/prefiltered.glsl) in
 the reference view, so the GPU image can be checked against an independent computation.
@@ -29,7 +32,8 @@ from brdflab.lighting.prefilter import PrefilteredStack, layer_blend, prefiltere
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 
 ALBEDO_SIZE = 32  # cos θo = 0, 1/31, …, 1
-ANISOTROPIC_PHIS = 4  # view azimuths averaged for anisotropic lobes
+ALBEDO_PHIS = 12  # view azimuths φo = 2π j / 12 of the table (an anisotropic lobe's albedo depends on φo)
+TAPS = 8  # lookups of an anisotropic lobe, around normals at the quantiles of its spread
 MIN_COS = 0.01  # the albedo at cos θo = 0 is taken at this cosine
 # and at cos θo = 1 at this one (0.08° off the normal): some models are 0/0 exactly there (BRDF
 # Explorer's Oren–Nayar normalises V − N (V·N)), and one texel would darken the whole centre
@@ -41,11 +45,12 @@ class LobeSplit:
     """One lobe's prefiltered lighting: its albedo table, the two stack layers blended for
     its roughness, its lookup axis and the share of its albedo lit by the irradiance."""
 
-    albedo: np.ndarray  # (ALBEDO_SIZE, 3) over cos θo = i / (ALBEDO_SIZE − 1), per colour (a colour lobe's differ)
+    albedo: np.ndarray  # (ALBEDO_PHIS, ALBEDO_SIZE, 3) over φo = 2π j / ALBEDO_PHIS and cos θo = i / (ALBEDO_SIZE − 1), per colour
     layers: tuple[int, int, float]
     axis: tuple[float, float, float]
     diffuse_share: float
     toward_axis: float = 1.0  # the lookup direction: normalize(mix(n, axis ∘ wo, toward_axis))
+    taps: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, 1.0),)  # (slope along t, along b, weight) of each lookup's normal
 
 
 def dominant_weight(alpha: float) -> float:
@@ -60,16 +65,45 @@ def albedo_cosines(size: int = ALBEDO_SIZE) -> np.ndarray:
 
 
 def lobe_albedo_table(lobe: Lobe, size: int = ALBEDO_SIZE) -> np.ndarray:
-    """A_k(cos θo) of the unscaled lobe in red, green and blue, (size, 3), averaged over view
-    azimuths if it is anisotropic."""
+    """A_k(φo, cos θo) of the unscaled lobe in red, green and blue, (ALBEDO_PHIS, size, 3):
+    computed at every view azimuth if the lobe is anisotropic (averaging them lost a factor
+    of up to 10: Lafortune's Cx ≠ Cy lobe was 90–104 % off), else once."""
     from brdflab.material.albedo import lobe_albedo_channels
 
     cos_o = np.clip(albedo_cosines(size), MIN_COS, MAX_COS)
     sin_o = np.sqrt(1.0 - cos_o**2)
-    phis = [0.0] if lobe.model.is_isotropic(lobe.params) else np.arange(ANISOTROPIC_PHIS) * (np.pi / ANISOTROPIC_PHIS)
+    isotropic = lobe.model.is_isotropic(lobe.params)
+    phis = [0.0] if isotropic else np.arange(ALBEDO_PHIS) * (2.0 * np.pi / ALBEDO_PHIS)
     wo = np.concatenate([np.stack([sin_o * np.cos(p), sin_o * np.sin(p), cos_o], -1) for p in phis])
-    a = lobe_albedo_channels(lobe, wo, 3)
-    return np.broadcast_to(a, (len(wo), 3)).reshape(len(phis), size, 3).mean(axis=0)
+    a = np.broadcast_to(lobe_albedo_channels(lobe, wo, 3), (len(wo), 3)).reshape(len(phis), size, 3)
+    return np.ascontiguousarray(np.broadcast_to(a, (ALBEDO_PHIS, size, 3)))
+
+
+def albedo_at(table: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """A table's albedo (pixels, 3) at local views wo (pixels, 3): linear in cos θo and,
+    periodically, in φo (the shader's lookup)."""
+    size = table.shape[1]
+    x = np.clip(wo[:, 2], 0.0, 1.0) * (size - 1)
+    i0 = np.minimum(x.astype(int), size - 2)
+    fx = (x - i0)[:, None]
+    y = (np.arctan2(wo[:, 1], wo[:, 0]) / (2.0 * np.pi) % 1.0) * ALBEDO_PHIS
+    j0 = np.minimum(y.astype(int), ALBEDO_PHIS - 1)
+    fy = (y - j0)[:, None]
+    j1 = (j0 + 1) % ALBEDO_PHIS
+    at_cos = table[:, i0] * (1 - fx) + table[:, i0 + 1] * fx  # (ALBEDO_PHIS, pixels, 3)
+    pixels = np.arange(len(wo))
+    return at_cos[j0, pixels] * (1 - fy) + at_cos[j1, pixels] * fy
+
+
+def tilt_taps(tilt: tuple[float, float], count: int = TAPS) -> tuple[tuple[float, float, float], ...]:
+    """Normals spread as a Gaussian of RMS slopes `tilt` (one of them 0): `count` of them at
+    its quantiles (k + ½)/count, equally weighted; the normal itself if there is no spread."""
+    if max(tilt) <= 0.0:
+        return ((0.0, 0.0, 1.0),)
+    from statistics import NormalDist
+
+    quantiles = [NormalDist().inv_cdf((k + 0.5) / count) for k in range(count)]
+    return tuple((tilt[0] * q, tilt[1] * q, 1.0 / count) for q in quantiles)
 
 
 def lobe_split(lobe: Lobe) -> LobeSplit:
@@ -77,7 +111,18 @@ def lobe_split(lobe: Lobe) -> LobeSplit:
     if rule.kind == "diffuse":
         return LobeSplit(lobe_albedo_table(lobe), (0, 0, 0.0), (0.0, 0.0, 1.0), 1.0)
     return LobeSplit(lobe_albedo_table(lobe), layer_blend(rule.kernel, rule.roughness), rule.axis,
-                     float(rule.diffuse_share), dominant_weight(rule.roughness))
+                     float(rule.diffuse_share), dominant_weight(rule.roughness), tilt_taps(rule.tilt))
+
+
+def lookup_direction(split: LobeSplit, tap: tuple[float, float, float], wo: np.ndarray) -> np.ndarray:
+    """Local direction (pixels, 3) a lobe's lookup `tap` reads at views wo (pixels, 3): the
+    lobe's axis ∘ wo (a tilted tap: wo mirrored about its normal), pulled toward that normal."""
+    normal = unit(np.array([-tap[0], -tap[1], 1.0]))
+    if tap[:2] == (0.0, 0.0):
+        axis = unit(np.asarray(split.axis) * wo)
+    else:
+        axis = unit(2.0 * (wo @ normal)[:, None] * normal - wo)
+    return unit(split.toward_axis * axis + (1.0 - split.toward_axis) * normal)
 
 
 @lru_cache(maxsize=256)
@@ -125,24 +170,27 @@ def prefiltered_image(material: AnalyticMaterial, env: EnvironmentMap, width: in
     return out
 
 
-def prefiltered_pixels(material: AnalyticMaterial, stack: PrefilteredStack, frames) -> np.ndarray:
+def prefiltered_pixels(material: AnalyticMaterial, stack: PrefilteredStack, frames, lit=None) -> np.ndarray:
     """The prefiltered mode's RGB (pixels, 3) at reference-view pixels whose frames are
-    (normal, tangent, bitangent), each (pixels, 3)."""
+    (normal, tangent, bitangent), each (pixels, 3): the split sum of the stack's dimmed map
+    plus the stack's lights, evaluated with `lit` (the material itself unless given: a
+    measured source, whose table the renderer evaluates at the lights)."""
+    from brdflab.lighting.reference_view import by_texel_centres
+
     n, t, b = frames
     wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)  # wo = +Z (world) in each pixel's frame
     irradiance = sample_latlong(stack.irradiance(), n)
-    colour = np.zeros((len(n), 3))
-    cosines = albedo_cosines()
+    colour = by_texel_centres(material if lit is None else lit, stack.light_directions.astype(float),
+                              stack.light_power.astype(float), (t, b, n), wo)
     for split, rgb in zip(material_split(material), material.rgb_scales()):
-        x = np.clip(wo[:, 2], 0.0, 1.0)
-        albedo = np.stack([np.interp(x, cosines, split.albedo[:, c]) for c in range(3)], -1)
+        albedo = albedo_at(split.albedo, wo)
         light = split.diffuse_share * irradiance / np.pi
         if split.diffuse_share < 1.0:
-            local = unit(split.toward_axis * unit(np.asarray(split.axis) * wo)
-                         + (1.0 - split.toward_axis) * np.array([0.0, 0.0, 1.0]))
-            d = local[:, :1] * t + local[:, 1:2] * b + local[:, 2:] * n
             lo, hi, w = split.layers
-            glossy = (1 - w) * sample_latlong(stack.layers[lo], d) + w * sample_latlong(stack.layers[hi], d)
-            light = light + (1.0 - split.diffuse_share) * glossy
+            for tap in split.taps:
+                local = lookup_direction(split, tap, wo)
+                d = local[:, :1] * t + local[:, 1:2] * b + local[:, 2:] * n
+                glossy = (1 - w) * sample_latlong(stack.layers[lo], d) + w * sample_latlong(stack.layers[hi], d)
+                light = light + (1.0 - split.diffuse_share) * tap[2] * glossy
         colour += rgb * albedo * light
     return colour

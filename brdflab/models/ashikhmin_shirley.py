@@ -10,7 +10,7 @@ from brdflab.geometry.sampling import (
     reflect,
 )
 from brdflab.geometry.vec import dot, half_vector, schlick
-from brdflab.models.base import CosineSampled, LobeModel, Parameter, SplitSum, blinn_roughness
+from brdflab.models.base import CosineSampled, LobeModel, Parameter, anisotropic_split, blinn_roughness
 from brdflab.models.registry import register
 
 _EXP = dict(lower=0.0, upper=100000.0, unit="1", log=True)
@@ -31,10 +31,11 @@ class AshikhminShirley(LobeModel):
     reference = "Ashikhmin & Shirley 2000; BRDFLab; Schwenk 2011 §3.6"
     starts = tuple({"nu": e, "nv": e} for e in (10.0, 100.0, 1000.0, 10000.0))
     sampling = "half vector by Ashikhmin & Shirley 2000 (eq. 9)"
-    split_sum_rule = "mirror, Beckmann α = √(αu·αv), αu,v = √(2/(nu,v+2)) (Blinn-like exponents)"
+    split_sum_rule = ("mirror, Beckmann αu,v = √(2/(nu,v+2)) (Blinn-like exponents): α = min(αu, αv) around "
+                      "normals spread along the longer axis")
 
     def split_sum(self, params):
-        return SplitSum("mirror", float(np.sqrt(blinn_roughness(params["nu"]) * blinn_roughness(params["nv"]))))
+        return anisotropic_split(blinn_roughness(params["nu"]), blinn_roughness(params["nv"]))
 
     def complete(self, given):
         out = dict(given)

@@ -2,8 +2,6 @@
 its Fresnel-coupled diffuse term (eq. 13). Lambertian + Kurt is eq. 11, KurtDiffuse +
 Kurt is eq. 13 and Lambertian + several Kurt lobes is eq. 14."""
 
-import numpy as np
-
 from brdflab.geometry.sampling import (
     beckmann_d,
     beckmann_half_vector,
@@ -11,7 +9,7 @@ from brdflab.geometry.sampling import (
     reflect,
 )
 from brdflab.geometry.vec import dot, half_vector, schlick
-from brdflab.models.base import CosineSampled, LobeModel, Parameter, SplitSum
+from brdflab.models.base import CosineSampled, LobeModel, Parameter, anisotropic_split
 from brdflab.models.registry import register
 
 
@@ -31,10 +29,10 @@ class Kurt(LobeModel):
     reference = "Kurt, Szirmay-Kalos & Křivánek 2010, eqs. 4–5, 10, 16–20"
     starts = tuple({"mx": m, "my": m, "F0": f, "alpha": a} for m in (0.03, 0.1, 0.3) for f, a in ((0.1, 0.2), (0.6, 0.8)))
     sampling = "half vector by eqs. 16–19, pdf eq. 20"
-    split_sum_rule = "mirror, Beckmann α = √(mx·my) (the geometric mean: the same lobe solid angle)"
+    split_sum_rule = "mirror, Beckmann α = min(mx, my) around normals spread along the longer axis (slopes √((m² − α²)/2))"
 
     def split_sum(self, params):
-        return SplitSum("mirror", float(min(1.0, np.sqrt(params["mx"] * params["my"]))))
+        return anisotropic_split(params["mx"], params["my"])
 
     def _value(self, wi, wo, p):
         h = half_vector(wi, wo)

@@ -39,7 +39,7 @@ from brdflab.geometry.sampling import (
     reflect,
 )
 from brdflab.geometry.vec import TINY, dot, half_vector
-from brdflab.models.base import LUMINANCE, LobeModel, Parameter, SplitSum
+from brdflab.models.base import LUMINANCE, LobeModel, Parameter, anisotropic_split
 from brdflab.models.registry import register
 
 # Mitsuba's luminance of linear sRGB (mitsuba/core/spectrum.h), used for the tints
@@ -172,7 +172,7 @@ class Principled(LobeModel):
                "Burley diffuse with retro-reflection and flatness, sheen, GTR1 clear coat.")
     reference = "Burley 2012 (Physically Based Shading at Disney); Mitsuba 3 `principled` (Burley 2015 changes)"
     sampling = "mixture: cosine (diffuse), GGX half vector D(h) cos θh (main), GTR1 (clear coat)"
-    split_sum_rule = ("mirror, GGX α = √(αx αy); the diffuse share of the normal-view albedo, (1 − metallic) "
+    split_sum_rule = ("mirror, GGX α = min(αx, αy) around normals spread along the longer axis; the diffuse share of the normal-view albedo, (1 − metallic) "
                       "× base luminance against the specular F0 + clear coat, is lit by the irradiance")
     starts = (
         {},
@@ -194,7 +194,7 @@ class Principled(LobeModel):
         f0 = (1.0 - metallic) * 0.08 * float(params["specular"]) + metallic * lum
         specular = f0 + 0.04 * 0.25 * float(params["clearcoat"])
         share = diffuse / (diffuse + specular) if diffuse + specular > 0.0 else 0.0
-        return SplitSum("mirror", float(min(1.0, np.sqrt(ax * ay))), kernel="ggx", diffuse_share=float(share))
+        return anisotropic_split(ax, ay, kernel="ggx", diffuse_share=float(share))
 
     def _value(self, wi, wo, p):
         return self._rgb(wi, wo, p) @ LUMINANCE

@@ -4,7 +4,7 @@ import numpy as np
 
 from brdflab.geometry.sampling import beckmann_half_vector, beckmann_d, half_vector_pdf, reflect
 from brdflab.geometry.vec import half_vector
-from brdflab.models.base import LobeModel, Parameter, SplitSum
+from brdflab.models.base import LobeModel, Parameter, anisotropic_split
 from brdflab.models.registry import register
 
 _ROUGH = dict(lower=0.001, upper=1.0, unit="1")
@@ -19,10 +19,10 @@ class _WardFamily(LobeModel):
     )
     starts = tuple({"ax": a, "ay": a} for a in (0.02, 0.08, 0.25, 0.5))
     sampling = "half vector by Ward/Walter (Kurt et al. eqs. 16–19)"
-    split_sum_rule = "mirror, Beckmann α = √(ax·ay) (the geometric mean: the same lobe solid angle)"
+    split_sum_rule = "mirror, Beckmann α = min(ax, ay) around normals spread along the longer axis (slopes √((a² − α²)/2))"
 
     def split_sum(self, params):
-        return SplitSum("mirror", float(min(1.0, np.sqrt(params["ax"] * params["ay"]))))
+        return anisotropic_split(params["ax"], params["ay"])
 
     def complete(self, given):
         out = dict(given)

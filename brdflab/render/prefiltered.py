@@ -1,7 +1,7 @@
 """GPU side of the prefiltered lighting mode: the map's stack as a texture array and the
 material's albedo table as a texture, uploaded when the map or the material changes.
 
-The stack itself is built (and cached per map) by brdflab/lighting/prefilter.py; the per-lobe
+The stack itself (its layers and lights) is built (and cached per map) by brdflab/lighting/prefilter.py; the per-lobe
 split by brdflab/lighting/split_sum.py; the shading is shaders/prefiltered.glsl.
 """
 
@@ -25,7 +25,7 @@ class PrefilteredLighting:
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        self._stack: tuple[EnvironmentMap, moderngl.TextureArray] | None = None
+        self._stack: tuple[EnvironmentMap, moderngl.TextureArray, np.ndarray] | None = None  # (map, layers, lights)
         self._albedo: tuple[tuple, moderngl.Texture, dict] | None = None
         self._splits: tuple[tuple, list] | None = None  # (material key, material_split) made elsewhere
 
@@ -35,7 +35,7 @@ class PrefilteredLighting:
 
         return (self._stack is not None and self._stack[0] is env) or is_cached(env)
 
-    def _stack_texture(self, env: EnvironmentMap) -> moderngl.TextureArray:
+    def _stack_texture(self, env: EnvironmentMap) -> tuple[moderngl.TextureArray, np.ndarray]:
         from brdflab.lighting.prefilter import prefiltered_stack
 
         if self._stack is None or self._stack[0] is not env:
@@ -45,8 +45,8 @@ class PrefilteredLighting:
             tex = self.ctx.texture_array((stack.width, stack.height, layers.shape[0]), 3, layers.tobytes(), dtype="f4")
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x, tex.repeat_y = True, False
-            self._stack = (env, tex)
-        return self._stack[1]
+            self._stack = (env, tex, stack.lights)
+        return self._stack[1], self._stack[2]
 
     @staticmethod
     def material_key(material: AnalyticMaterial) -> tuple:
@@ -61,18 +61,20 @@ class PrefilteredLighting:
         self._splits = (key, splits)
 
     def _albedo_texture(self, material: AnalyticMaterial) -> tuple[moderngl.Texture, dict]:
-        from brdflab.lighting.split_sum import material_split
+        from brdflab.lighting.split_sum import TAPS, material_split
 
         key = self.material_key(material)
         if self._albedo is None or self._albedo[0] != key:
             self.release_albedo()
             splits = self._splits[1] if self._splits is not None and self._splits[0] == key else material_split(material)
-            table = np.ascontiguousarray(np.stack([s.albedo for s in splits]), np.float32)
+            table = np.ascontiguousarray(np.concatenate([s.albedo for s in splits]), np.float32)  # (lobes · φo, cos θo, 3)
             tex = self.ctx.texture((table.shape[1], table.shape[0]), 3, table.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # interpolated in the shader
             uniforms = {
                 "u_pref_layers": np.array([[*s.layers, s.diffuse_share] for s in splits], np.float32),
                 "u_pref_axis": np.array([[*s.axis, s.toward_axis] for s in splits], np.float32),
+                "u_pref_taps": np.array([list(s.taps) + [(0.0, 0.0, 0.0)] * (TAPS - len(s.taps)) for s in splits],
+                                        np.float32),
                 "u_pref_albedo_size": float(table.shape[1]),
             }
             self._albedo = (key, tex, uniforms)
@@ -85,11 +87,13 @@ class PrefilteredLighting:
 
         if env is None:
             raise BRDFLabError("no environment map for the prefiltered lighting mode")
-        self._stack_texture(env).use(STACK_UNIT)
+        stack, lights = self._stack_texture(env)
+        stack.use(STACK_UNIT)
         albedo, uniforms = self._albedo_texture(material)
         albedo.use(ALBEDO_UNIT)
         values = {"u_pref_stack": STACK_UNIT, "u_pref_albedo": ALBEDO_UNIT,
-                  "u_pref_rotation": math.radians(rotation_degrees), **uniforms}
+                  "u_pref_rotation": math.radians(rotation_degrees), **uniforms,
+                  "u_pref_light_dir": lights[:, :3], "u_pref_light_power": lights[:, 3:]}
         for name, value in values.items():
             if name not in program:
                 continue
