@@ -45,8 +45,14 @@ FD_STEP = 1e-4
 # a parameter that starts within this fraction of its (logistic) range from a bound is
 # moved inside first: on the bound itself the bounded map has no gradient
 START_MARGIN = 0.01
-# a search variable this far into its logistic tail has run onto the bound
-SATURATED = 1e-15
+# the search variables of bounded parameters stay within ±U_LIMIT (their logistic tail: 3e-7
+# of the range from a bound), and one LM step moves none by more than MAX_STEP: a variable
+# whose gradient vanishes (a weight whose lobe is off) once took a step to ±40, where the map
+# is flat, and never came back (Principled's clear coat, its gloss, its colour)
+U_LIMIT = 15.0
+MAX_STEP = 4.0
+# a parameter this close to a bound (fraction of its searched range) is reported on it
+SATURATED = 1e-6
 MAX_FIT_LOBES = 16  # lobes of one fit (per channel in Fixed materials): more is no model of a BRDF, and costs minutes
 
 
@@ -69,11 +75,14 @@ class Bounded:
 
     def to_x(self, u: float) -> float:
         a, b, c = self._span()
-        t = 1.0 / (1.0 + math.exp(-max(-40.0, min(40.0, u))))
-        if t < SATURATED or t > 1.0 - SATURATED:  # run onto a bound: the bound itself (not 4e-18)
-            return self.lo if t < 0.5 else self.hi
-        v = a + (b - a) * t
+        v = a + (b - a) / (1.0 + math.exp(-max(-U_LIMIT, min(U_LIMIT, u))))
         return min(self.hi, max(self.lo, self.lo + math.exp(v) - c if self.log else v))
+
+    def on_bound(self, x: float) -> float:
+        """x, or the bound it has run onto (within SATURATED of the range): a fit reports
+        clearcoat = 0, not 3e-7."""
+        t = self.position(x)
+        return self.lo if t < SATURATED else (self.hi if t > 1.0 - SATURATED else x)
 
     def position(self, x: float) -> float:
         """Where x lies in its range, 0 (lower bound) to 1 (upper), on the searched scale."""
@@ -175,6 +184,16 @@ def free_blocks(material: AnalyticMaterial, magnitude_cap: float | None = None) 
         if material.combination == "Fixed" and lobe.model.scaled:
             blocks.append(FreeBlock(l, (), "magnitude", Positive() if magnitude_cap is None else Capped(magnitude_cap)))
     return blocks
+
+
+def on_bounds(material: AnalyticMaterial) -> AnalyticMaterial:
+    """The material with every fitted parameter that ran onto a bound set on it."""
+    out = material.copy()
+    for b in free_blocks(out):
+        if b.kind == "scalar":
+            params = out.lobes[b.lobe].params
+            params[b.names[0]] = b.transform.on_bound(params[b.names[0]])
+    return out
 
 
 def parameter_count(material: AnalyticMaterial) -> int:
@@ -531,7 +550,9 @@ def _lm(problem: _Problem, u: np.ndarray, options: FitOptions, max_iterations: i
             if step is None:
                 lam *= 4.0
                 continue
-            trial_u = u + step
+            clipped = bool(np.any(np.abs(step) > MAX_STEP))  # then λ grows until it is not
+            trial_u = np.clip(u + np.clip(step, -MAX_STEP, MAX_STEP), -U_LIMIT, U_LIMIT)
+            step = trial_u - u
             trial = problem.evaluate(trial_u, with_jacobian=not cautious)
             predicted = -float(step @ jtr) - 0.5 * float(step @ (jtj @ step))
             if math.isfinite(trial[0]) and trial[0] < cost:
@@ -553,7 +574,7 @@ def _lm(problem: _Problem, u: np.ndarray, options: FitOptions, max_iterations: i
                     status = "converged"
                     break
             else:
-                if predicted < ftol * cost or small:
+                if not clipped and (predicted < ftol * cost or small):
                     # the local model promises less than the tolerance, or the last accepted
                     # step already gained less and this one fails: nothing left to gain
                     status = "converged"
@@ -652,6 +673,7 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
                 passes += evaluations
 
     # the reported error: summed directly over the scored samples, against the start's
+    result_material = on_bounds(result_material)
     scored = score_on or samples
     start_error, error, zero_error = metric_errors([material, result_material, None], scored, options.metric)
     passes += 1
