@@ -52,9 +52,11 @@ def test_mitsuba_renders_the_export_as_the_lab_does(name, small_env):
     from brdflab.study.mitsuba_check import compare
 
     material = ANALYTIC[name]() if name in ANALYTIC else xmlio.load(FITS / f"{name}.xml").material
-    c = compare(name, material, small_env, size=24, spp=1024)
-    assert c.mitsuba_noise < 0.05  # enough samples for the comparison to mean something
-    assert c.quadrature_rmse <= 0.02, c.as_dict()
+    c = compare(name, material, small_env, size=24, spp=1024, lab_samples=512)
+    assert c.mitsuba_noise < 0.05 and c.lab_noise < 0.05  # enough samples for the comparison to mean something
+    assert c.renderer_rmse <= 0.02, c.as_dict()
+    if name in ANALYTIC:  # lobes wider than the map's texels: the quadrature is exact there too
+        assert c.quadrature_rmse <= 0.02, c.as_dict()
 
 
 def test_the_mitsuba_scene_names_what_it_was_fitted_from(tmp_path):
