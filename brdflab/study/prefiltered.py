@@ -159,10 +159,10 @@ def draw(numbers: dict, out_dir: Path) -> list[str]:
     bar = fig.add_axes([1.0 - 0.95 / width, 0.33, 0.12 / width, 0.55])
     fig.colorbar(image, cax=bar, label="relative RMSE (%)")
     caption = (f"Where it breaks (over 10 %): {breaking_bands(numbers)}. Prefiltered lighting prefilters every lobe "
-               "as it is at normal view (n = v = r), so the stretched, shifted highlights of grazing views are lost "
-               "and the error grows toward the rim, fastest for glossy lobes on maps with small bright sources "
-               "(forest). Broad lobes are looked up along Frostbite's dominant direction (pulled toward n), which "
-               f"keeps them within a few percent at normal views. Lobes sharper than a texel of the "
+               "as it is at normal view (n = v = r), so the stretched, shifted and horizon-clipped highlights of "
+               "grazing views are lost and the error grows toward the rim. The map's 32 brightest texels (a sun) are "
+               "lit exactly, not prefiltered, so small bright sources no longer blow it up. Broad lobes are looked up "
+               "along Frostbite's dominant direction (pulled toward n). Lobes sharper than a texel of the "
                f"{numbers.get('reference_texels', [128, 64])[0]}-texel-wide map (n ≈ 3000) compare two "
                "discretisations of the map, not the method.")
     fig.text(0.02, 0.02, textwrap.fill(caption, int(width * 15)), fontsize=8, va="bottom")
@@ -171,5 +171,5 @@ def draw(numbers: dict, out_dir: Path) -> list[str]:
 
 register(Part("prefiltered", "prefiltered lighting: error over glossiness × view angle", measure, draw,
               lesson="Prefiltered lighting costs one frame of a few ms and is within a few percent at normal-ish "
-                     "views for glossy lobes, but its error grows tenfold toward grazing views, and broad lobes "
-                     "are off everywhere: use it for previews, not for measurements."))
+                     "views for glossy lobes (a sun lit exactly, not blurred into the layers), but its error grows "
+                     "several-fold toward grazing views: use it for previews, not for measurements."))
