@@ -76,3 +76,28 @@ def grid_error(reference, candidate, metric: str = "Ngan", n_theta: int = 16, n_
     if metric != "L2":
         diff2 = diff2 * np.cos(ti) ** 2
     return math.sqrt(float(np.einsum("n,n->", weight, diff2)) / (float(weight.sum()) * reference.n_channels))
+
+
+def lobe_shares(material, samples: SampleSet, metric: str) -> np.ndarray:
+    """Each lobe's share of the material's metric-weighted energy on the samples:
+    Σ w ‖its contribution‖² / Σ w ‖f‖² (0 for a lobe scaled to 0; the shares need not sum to 1)."""
+    own = np.zeros(len(material.lobes))
+    total = 0.0
+    for wi, wo, _, measure in samples.chunks():
+        w = sample_weight(metric, wi, wo, measure)
+        inside = w > 0.0
+        wi, wo, w = wi[inside], wo[inside], w[inside]
+        parts = [_contribution(material, lobe, wi, wo) for lobe in material.lobes]
+        own += [float(np.einsum("n,n->", w, (p ** 2).sum(axis=1))) for p in parts]
+        total += float(np.einsum("n,n->", w, (sum(parts) ** 2).sum(axis=1)))
+    return own / max(total, 1e-300)
+
+
+def _contribution(material, lobe, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """One lobe's part of the material's value, (N, n_channels)."""
+    v = lobe.channel_values(wi, wo, material.n_channels)
+    if material.combination == "Linear":
+        return v * np.asarray(lobe.scale)
+    out = np.zeros((wi.shape[0], material.n_channels))
+    out[:, lobe.channel] = lobe.scale[0] * v[:, min(lobe.channel, v.shape[-1] - 1)]
+    return out
