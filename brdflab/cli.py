@@ -271,6 +271,7 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
                   f"{'screened out (' + format(c.screen_error, '.4g') + ')':>21}")
         lines.append(f"{mark:2}{c.rung:>4}  {lobes:<48} {c.parameters:>6} {errors} {c.seconds:>8.2f}")
     lines.append(f"chosen (*): {ladder.reason}; {ladder.seconds:.1f} s in all")
+    lines.append(f"its {ladder.metric} error on {chosen.scored_on}: {chosen.error:.6g} ({chosen.status})")
     if args.out:
         lines.append(f"stored the chosen fit in {args.out}")
     _emit(args, payload, "\n".join(lines))

@@ -105,10 +105,13 @@ class Ladder:
     held_back_samples: int
     seconds: float
     cpu_seconds: float
+    error: float = math.nan  # the pick's error over every sample of the source (the whole hemisphere)
+    samples: int = 0  # how many that is
 
     def as_dict(self) -> dict:
         return {"tolerance": self.tolerance, "metric": self.metric, "fitted_samples": self.fitted_samples,
-                "held_back_samples": self.held_back_samples, "seconds": round(self.seconds, 4),
+                "held_back_samples": self.held_back_samples, "error": _number(self.error), "samples": self.samples,
+                "seconds": round(self.seconds, 4),
                 "cpu_seconds": round(self.cpu_seconds, 4), "chosen": self.candidates.index(self.chosen), "reason": self.reason,
                 "candidates": [c.as_dict() for c in self.candidates]}
 
@@ -410,14 +413,33 @@ def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: s
         chosen, reason = _cancelled(rung, chosen, stopped, tolerance, metric)
     if exhaustive:
         reason = "exhaustive run (every rung climbed, every candidate fully fitted): " + reason
+    if chosen.status == "max-iterations" and not (cancel is not None and cancel.is_set()):
+        reason += _finish(chosen, fitted, held_back, options, cancel)
+    error = metric_errors([chosen.result.material], samples, metric)[0] if chosen.result is not None else math.nan
     return Ladder(done, chosen, reason, tolerance, metric, fitted.size, held_back.size, time.perf_counter() - t0,
-                  time.process_time() - c0)
+                  time.process_time() - c0, error, samples.size)
+
+
+def _finish(chosen: Candidate, fitted: SampleSet, held_back: SampleSet, options: FitOptions,
+            cancel: Cancel | None) -> str:
+    """A pick whose fit stopped at the iteration cap goes on from where it stopped (as many
+    iterations again); what the reason adds: that it converged then, or that it did not."""
+    again = fit(chosen.result.material, fitted, replace(options, restarts=False, coarse_size=0), cancel=cancel)
+    if again.status == "cancelled":
+        return "; its fit stopped at the iteration cap, and continuing it was cancelled"
+    again.iterations += chosen.result.iterations  # never worse than its start, the pick
+    (chosen.error_held_back,) = metric_errors([again.material], held_back, options.metric)
+    chosen.result, chosen.status, chosen.error_fitted = again, again.status, again.error
+    if chosen.status == "converged":
+        return "; its fit, stopped at the iteration cap, was continued until it converged"
+    return (f"; its fit stopped at the iteration cap ({options.max_iterations} iterations) twice and has not "
+            "converged: more iterations (--max-iterations) may lower its error")
 
 
 def chosen_fit(ladder: Ladder) -> FitResult:
-    """The pick's fit, saying which samples its error is measured on."""
-    result = ladder.chosen.result
-    result.scored_on = f"the {ladder.fitted_samples} samples Auto fitted"
+    """The pick's fit, its error over every sample of the source (not only the ones Auto fitted)."""
+    result = replace(ladder.chosen.result, error=ladder.error)
+    result.scored_on = f"{ladder.samples} samples (all of the source; Auto fitted {ladder.fitted_samples})"
     return result
 
 
