@@ -39,8 +39,10 @@ def material_source(models: tuple[str, ...], measured: bool = False, n_channels:
     """GLSL for a material made of these models (in lobe order): material_eval(wi, wo)
     → RGB, material_sample(k, wo, u) and the mixture density material_pdf(wi, wo).
 
-    measured=True: material_eval reads the measured table (shaders/measured.glsl) and the
-    lobes are only a fitted proxy that importance-samples it. A colour lobe (a BRDF
+    measured=True: material_eval reads the measured table (shaders/measured.glsl), and
+    material_sample / material_pdf draw from the table's own tabulated sampler (texture layer
+    0, `sources.proxy.measured_sampler`); the lobes are a fitted proxy for the other modes
+    (SH, prefiltered). A colour lobe (a BRDF
     Explorer file) adds its RGB in a 3-channel material and its luminance in any other,
     as AnalyticMaterial.evaluate does."""
     from brdflab.models import get_model
@@ -80,6 +82,11 @@ def material_source(models: tuple[str, ...], measured: bool = False, n_channels:
         parts.append(shader_source("measured.glsl"))
     else:
         lines += ["    return f;", "}"]
+    if measured:  # one strategy, whatever the sample's lobe: the table's own sampler (layer 0)
+        parts += ["#define N_TAB 1", shader_source("tabulated.glsl")]
+        lines += ["vec3 material_sample(int k, vec3 wo, vec2 u) { return sample_tab(0, wo, u); }",
+                  "float material_pdf(vec3 wi, vec3 wo) { return pdf_tab(0, wi, wo); }"]
+        return "\n".join(parts + lines) + "\n"
     slots = tabulated_slots(models)
     if slots:  # lobes sampled from tables of their own values (models read from files)
         parts += [f"#define N_TAB {len(slots)}", shader_source("tabulated.glsl")]

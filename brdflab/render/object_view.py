@@ -16,7 +16,7 @@ import numpy as np
 from brdflab.lighting.envmap import EnvironmentMap
 from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial
-from brdflab.sources.proxy import proxy_lobes, render_table
+from brdflab.sources.proxy import measured_sampler, proxy_lobes, render_table
 from brdflab.io.mesh import Mesh
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.prefiltered import PrefilteredLighting
@@ -130,6 +130,7 @@ class ObjectRenderer:
             return
         table = render_table(source)
         self.set_material(proxy_lobes(source))
+        self._shares = np.ones(1)  # FIS and MIS draw from the table's own sampler alone
         self.measured = True
         if self.table_texture is not None:
             self.table_texture.release()
@@ -461,7 +462,10 @@ class ObjectRenderer:
             _set(prog, "u_sample_begin", sample_range[0])
             _set(prog, "u_sample_end", sample_range[1])
             _set(prog, "u_set_size", float(set_size))
-            self.tabulated.bind(prog, self.material)
+            if self.measured:
+                self.tabulated.bind_samplers(prog, ("measured", id(self.source)), [measured_sampler(self.source)])
+            else:
+                self.tabulated.bind(prog, self.material)
         if settings.mode == "mis":
             marginal, table = self._env_sampling_tables()
             marginal.use(6)

@@ -50,13 +50,19 @@ class TabulatedTextures:
 
     def bind(self, program: moderngl.Program, material: AnalyticMaterial) -> None:
         """Upload the material's tables if they changed, and point `program` at them."""
+        slots = tabulated_slots(models_of(material))
+        if slots:
+            self.bind_samplers(program, self.key(material),
+                               [material.lobes[k].model.tabulated_sampler(material.lobes[k].params) for k in slots])
+
+    def bind_samplers(self, program: moderngl.Program, key: tuple, samplers: list) -> None:
+        """Upload these samplers' tables (layer k: samplers[k]) if `key` changed, and point
+        `program` at them."""
         from brdflab.render.glsl import set_uniforms
 
-        slots = tabulated_slots(models_of(material))
-        if not slots or "u_tab" not in program:
+        if "u_tab" not in program:
             return
-        key = self._wanted = self.key(material)
-        samplers = [material.lobes[k].model.tabulated_sampler(material.lobes[k].params) for k in slots]
+        self._wanted = key
         self.provisional = self.background and (self._final is None or self._final[0] != key) \
             and not self._built(key, samplers)
         texture = self._stand_in_texture(samplers) if self.provisional else self._final_texture(key, samplers)

@@ -17,6 +17,7 @@ MIN_ROUGHNESS = 0.05
 # (by id: sources are unhashable dataclasses; an entry goes when its source does)
 _PROXIES: dict[int, AnalyticMaterial] = {}
 _TABLES: dict[int, object] = {}
+_SAMPLERS: dict[int, object] = {}
 
 
 def _once_per_source(cache: dict, source, make):
@@ -63,3 +64,30 @@ def _fit_proxy(source) -> AnalyticMaterial:
         if "m" in lobe.params:
             lobe.params["m"] = max(lobe.params["m"], MIN_ROUGHNESS)
     return result.material
+
+
+class _ChannelMean:
+    """A measured table as the one-valued lobe the tabulated sampler tabulates: the mean of
+    its channels (so that no channel's highlight goes without samples)."""
+
+    def __init__(self, table) -> None:
+        self.table = table
+
+    def evaluate(self, wi, wo, params):
+        return self.table.evaluate(wi, wo).mean(axis=-1)
+
+    @staticmethod
+    def is_isotropic(params) -> bool:
+        return True
+
+
+def measured_sampler(source):
+    """The tables that importance-sample a measured source in the renderers' FIS and MIS: the
+    generic tabulated sampler (`models.files.sampler`) built from the source's own values, its
+    half vectors tabulated per view up to 89°, so its density follows f cos θi at every view.
+    The proxy lobes' fixed mixture did not: at grazing views a paint's Fresnel-brightened
+    highlight carried up to 140× the proxy's density (FIS under a small sun 11–17 % off at
+    4,096 samples). Made once per source object; the tables are built on first use."""
+    from brdflab.models.files.sampler import TabulatedSampler
+
+    return _once_per_source(_SAMPLERS, source, lambda s: TabulatedSampler(_ChannelMean(render_table(s)), {}))
