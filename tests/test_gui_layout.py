@@ -9,6 +9,7 @@ from PIL import Image
 from PySide6.QtWidgets import QScrollArea
 
 from test_gui import window  # noqa: F401  (the fixture)
+from test_gui_trust import shot
 
 pytestmark = pytest.mark.skipif(
     not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") not in ("offscreen",),
@@ -28,12 +29,48 @@ def test_the_lobe_viewer_is_the_central_largest_view_and_fits_a_laptop(window, q
     lobe = area(window.lobe_view)
     assert lobe > area(window.object_view)
     assert all(lobe > area(d) for d in window._docks.values() if d.isVisible())
-    qtbot.wait(200)
-    sideways = [name for name, dock in window._docks.items() for a in dock.findChildren(QScrollArea)
-                if a.isVisible() and a.horizontalScrollBar().isVisible()]
-    assert not sideways, f"panels cut on the right (scrolling sideways): {sideways}"
+    assert not cut_panels(window, qtbot), "panels cut on the right (scrolling sideways)"
     window.resize(1800, 1000)  # it grows with the window
     qtbot.waitUntil(lambda: area(window.lobe_view) > 1.3 * lobe, timeout=5000)
+
+
+def cut_panels(window, qtbot) -> list[str]:
+    """The panels that scroll sideways, each raised in turn (a tab behind another is laid out
+    only when shown)."""
+    cut = []
+    for name, dock in window._docks.items():
+        dock.raise_()
+        qtbot.wait(50)
+        cut += [name for a in dock.findChildren(QScrollArea) if a.isVisible() and a.horizontalScrollBar().isVisible()]
+    return cut
+
+
+def test_a_laptop_shows_every_parameter_row_of_the_selected_lobe(window, qtbot):  # noqa: F811
+    window.resize(1366, 740)  # a 1366 × 768 laptop's free area
+    qtbot.waitUntil(lambda: window.width() == 1366 and window.height() == 740, timeout=5000)
+    tree = window.editor.tree
+    tree.setCurrentItem(tree.topLevelItem(1))  # LafortuneIso: Cxy, Cz, Exponent and three scales
+    qtbot.wait(200)
+    area = window.editor.parentWidget().parentWidget()
+    shown = area.viewport().rect()
+    rows = list(window.editor._rows.values())
+    inside = [shown.contains(r.mapTo(area.viewport(), r.rect().bottomRight())) for r in rows]
+    assert len(rows) == 6 and all(inside), f"{sum(inside)} of {len(rows)} rows shown"  # before: 2
+    assert not cut_panels(window, qtbot)
+    shot(window, "laptop_material")
+
+
+def test_a_window_shrunk_and_grown_again_gives_its_panels_their_width_back(window, qtbot):  # noqa: F811
+    window.resize(1366, 740)
+    qtbot.waitUntil(lambda: window.width() == 1366, timeout=5000)
+    window.resize(800, 560)  # as small as the window goes
+    qtbot.wait(200)
+    window.resize(1366, 740)
+    qtbot.waitUntil(lambda: window.width() == 1366, timeout=5000)
+    qtbot.wait(200)
+    fitting = window.fitting
+    assert window._docks["Fitting"].width() >= fitting.minimumSizeHint().width()  # before: 100 px
+    assert not cut_panels(window, qtbot)
 
 
 def test_reset_layout_brings_every_panel_back(window, qtbot):

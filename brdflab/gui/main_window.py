@@ -43,7 +43,8 @@ from brdflab.fitting.diagnosis import bound_warnings, energy_words
 from brdflab.gui.panels import sh_table_request
 from brdflab.models import get_model
 
-LAYOUT_VERSION = 4  # 2: the lobe viewer became the central view; 3: the Charts dock; 4: the Auto ladder dock
+LAYOUT_VERSION = 5  # 2: the lobe viewer became the central view; 3: the Charts dock; 4: the Auto ladder dock;
+# 5: the left column the window's full height
 LADDER_HEIGHT = 400  # pixels: the Auto ladder dock's reason and a dozen candidates
 CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
 <table cellspacing=4>
@@ -66,11 +67,14 @@ RING_STEP = 2.0  # a measured table whose neighbouring θh bins differ this much
 
 
 def _scrolling(widget: QWidget) -> QScrollArea:
-    """A panel in a scroll area: a dock may then be smaller than its contents (small screens)."""
+    """A panel in a scroll area: a dock may then be shorter than its contents (small screens),
+    never narrower (a window shrunk and grown again left the Fitting panel 100 px wide,
+    scrolling sideways, until Reset layout)."""
     area = QScrollArea()
     area.setWidgetResizable(True)
     area.setFrameShape(QScrollArea.NoFrame)
     area.setWidget(widget)
+    area.setMinimumWidth(widget.minimumSizeHint().width() + area.verticalScrollBar().sizeHint().width())
     return area
 
 
@@ -193,6 +197,9 @@ class MainWindow(QMainWindow):
         self.warnings = central.banner
         self.setCentralWidget(central)
         self._docks = {}
+        # the left column runs the window's full height: on a 1366 × 768 laptop the Material
+        # panel showed 1–2 parameter rows above a full-width bottom row
+        self.setCorner(Qt.BottomLeftCorner, Qt.LeftDockWidgetArea)
         for name, widget, area in (
             ("Material", self.editor, Qt.LeftDockWidgetArea),
             ("Lobe options", self.lobe_controls, Qt.LeftDockWidgetArea),
