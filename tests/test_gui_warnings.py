@@ -71,3 +71,25 @@ def test_clamped_fraction_counts_covered_negative_pixels():
     rgba[1, 2] = -0.5
     rgba[3, :3] = -1.0  # not covered: background, not counted
     assert clamped_fraction(rgba.tobytes()) == pytest.approx(1 / 3)
+
+
+def test_the_energy_banner_is_one_short_line_with_a_number_above_one(window, qtbot):  # noqa: F811
+    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.io.xmlio import Fitting
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+
+    window.resize(1366, 740)
+    window.editor.lobe_removed.emit(1)
+    for channel in range(3):  # a Lambertian just above albedo 1
+        window.editor.scale_edited.emit(0, channel, 1.003 / np.pi)
+    fits = tuple(Fitting(AnalyticMaterial(f"f{k}", "Linear", 3, [Lobe.create("Lambertian", [2.0 + k] * 3)]), 0.1)
+                 for k in range(3))
+    ws = window.workspace
+    window.undo_stack.push(ReplaceFittings(window, (tuple(ws.document.fittings), ws.shown_fit), (fits, 0), "fits"))
+    qtbot.waitUntil(lambda: "Stored fit" in banner(window) and "This material" in banner(window), timeout=30000)
+    text = banner(window)
+    assert "Stored fits 0, 1, 2: albedo up to 12.6 > 1" in text  # 4 π: the worst fit's
+    assert "up to 1 >" not in text and "up to 1.00" in text  # before: "albedo up to 1 > 1"
+    lines = window.warnings.height() / window.warnings.fontMetrics().lineSpacing()
+    assert lines < 3.5, text  # one line each for the material and the fits (before: four and more)
+    assert "up to 1.00" in window.editor.energy.text()

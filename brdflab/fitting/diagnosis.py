@@ -50,8 +50,16 @@ def energy_words(conserves: bool, max_albedo) -> str | None:
     energy checks run elsewhere, e.g. the window's worker process)."""
     if conserves:
         return None
-    worst = max(float(a) for a in max_albedo)
-    return f"albedo up to {worst:.3g} > 1: it reflects more light than it receives (energy is not conserved)"
+    return f"albedo up to {above_one(max(float(a) for a in max_albedo))} > 1 (reflects more light than it receives)"
+
+
+def above_one(albedo: float) -> str:
+    """An albedo above 1 with the digits that show it is (1.003, not "1")."""
+    for digits in range(3, 10):
+        text = f"{albedo:.{digits}g}"
+        if float(text) > 1.0:
+            return text
+    return f"{albedo:.10g}"
 
 
 def energy_warnings(material: AnalyticMaterial) -> list[str]:

@@ -566,8 +566,13 @@ class MainWindow(QMainWindow):
         if len(summaries) != len(fittings):
             return  # an answer about fits that have changed since: a newer request is on its way
         self.fitting.show_fits(fittings, self.workspace.shown_fit, summaries)
-        bad = [f"fit {k}: {energy_words(*s)}" for k, s in enumerate(summaries) if s is not None and not s[0]]
-        self.set_warning("fits", "Stored " + "; ".join(bad) if bad else None)
+        bad = [(k, max(s[1])) for k, s in enumerate(summaries) if s is not None and not s[0]]
+        if not bad:
+            self.set_warning("fits", None)
+            return
+        which = ", ".join(str(k) for k, _ in bad)  # one short line however many fits
+        self.set_warning("fits", f"Stored fit{'s' if len(bad) > 1 else ''} {which}: "
+                                 f"{energy_words(False, [a for _, a in bad])}")
 
     def _check_bounds(self) -> None:
         ws = self.workspace

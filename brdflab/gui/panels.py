@@ -40,6 +40,7 @@ from brdflab.material.albedo import energy_check
 from brdflab.fitting.auto import DEFAULT_SPLIT
 from brdflab.fitting.auto import DEFAULT_TOLERANCE as FIT_TOLERANCE
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
+from brdflab.fitting.diagnosis import above_one
 from brdflab.fitting.lm import METRICS
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.models import model_names
@@ -274,7 +275,7 @@ class MaterialEditor(QWidget):
             self.energy.setText("Energy: albedo ≤ 1 for every view (max " + ", ".join(f"{a:.3f}" for a in max_albedo) + ")")
             self.energy.setStyleSheet("color: #2a7a2a")
         else:
-            self.energy.setText("⚠ Energy: albedo up to " + ", ".join(f"{a:.3f}" for a in max_albedo) + " > 1")
+            self.energy.setText(f"⚠ Energy: albedo up to {above_one(max(max_albedo))} > 1")
             self.energy.setStyleSheet("color: #b03030; font-weight: bold")
 
     def _clear_params(self) -> None:
