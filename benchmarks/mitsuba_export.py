@@ -21,12 +21,29 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from brdflab.io import xmlio  # noqa: E402
-from brdflab.io.resources import default_environment_path  # noqa: E402
-from brdflab.lighting.envmap import load_environment  # noqa: E402
-from brdflab.lighting.tonemap import write_png  # noqa: E402
-from brdflab.study.mitsuba_check import compare  # noqa: E402
-from test_export_principled import ANALYTIC, FITS, MERL_FITS  # noqa: E402  (the test's materials)
+from test_export_principled import ANALYTIC, FITS, MERL_FITS
+
+from brdflab.io import xmlio
+from brdflab.io.resources import default_environment_path
+from brdflab.lighting.envmap import load_environment
+from brdflab.lighting.tonemap import tonemap
+from brdflab.sources.measured import read_slice
+from brdflab.study.mitsuba_check import compare, lab_mis
+
+SLICES = ROOT.parent / "shared" / "data" / "merl_slices"
+
+
+def labelled_row(path: Path, panels: list[tuple[str, np.ndarray]]) -> None:
+    """Tone-mapped images side by side, each with its label."""
+    from PIL import Image, ImageDraw
+
+    tiles = []
+    for label, image in panels:
+        tile = Image.fromarray(tonemap(image, exposure=0.0))
+        ImageDraw.Draw(tile).text((4, 2), label, fill=(255, 255, 255))
+        tiles.append(np.asarray(tile))
+        tiles.append(np.full((image.shape[0], 3, 3), 255, np.uint8))
+    Image.fromarray(np.concatenate(tiles[:-1], axis=1)).save(path)
 
 
 def main() -> None:
@@ -43,9 +60,11 @@ def main() -> None:
         c = compare(name, material, env, args.size, args.spp, args.lab_samples)
         rows.append({**c.as_dict(), "size": args.size, "spp": args.spp, "lab_mis_samples": [args.lab_samples, 4 * args.lab_samples]})
         print(json.dumps(rows[-1]), flush=True)
-        gap = np.zeros((args.size, 2, 3))
-        write_png(ROOT / "docs" / "images" / f"mitsuba_{name.replace(' ', '_')}.png",
-                  np.concatenate([c.lab, gap, c.mitsuba], axis=1), exposure=0.0)
+        panels = [("lab (MIS)", c.lab), ("Mitsuba 3", c.mitsuba)]
+        if name in MERL_FITS:  # the round trip: the measurement, its principled fit in the lab, in Mitsuba
+            measured = lab_mis(read_slice(SLICES / f"{name}.slice"), env, args.size, 4 * args.lab_samples)
+            panels = [("measured (lab)", measured), ("principled fit: lab", c.lab), ("fit: Mitsuba 3", c.mitsuba)]
+        labelled_row(ROOT / "docs" / "images" / f"mitsuba_{name.replace(' ', '_')}.png", panels)
     Path(args.json).write_text(json.dumps({"map": "venice_sunset_1k.hdr at 256 × 128", "rows": rows}, indent=1))
 
 

@@ -521,10 +521,12 @@ def cmd_export(args: argparse.Namespace) -> int:
     check_writable(out)
     source = load_source(Path(args.source), fitting=args.fitting)
     env = None
+    if args.env_back and not args.env:
+        raise BRDFLabError("--env-back names the back half of the dual-paraboloid pair given by --env")
     if args.env:
         from brdflab.lighting.envmap import load_environment
 
-        env = load_environment(Path(args.env), args.env_layout)
+        env = load_environment(Path(args.env), args.env_layout, args.env_back)
     try:
         warnings = export_source(source, args.format, out, origin=Path(args.source), env=env)
     except OSError as e:
@@ -729,9 +731,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "view) with a principled BSDF; mtlx: MaterialX standard_surface and open_pbr_surface; gltf: a "
                         "glTF 2.0 sphere with a metallic-roughness material (.glb: binary). The last three take a "
                         "Principled material as it is and fit anything else to Principled on the way out, saying the error")
-    p.add_argument("--env", help="mitsuba: the scene's environment map (default: the shipped map)")
+    p.add_argument("--env", help="mitsuba: the scene's environment map (default: the shipped map), written "
+                                  "beside the scene as lat-long OpenEXR")
     p.add_argument("--env-layout", choices=["auto", "latlong", "angular", "dual-paraboloid"], default="auto",
                    help="the layout of --env")
+    p.add_argument("--env-back", help="the back half of a dual-paraboloid pair whose front half is --env")
     p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="export the K-th stored fit")
     p.add_argument("--out", required=True, help="the file to write")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")

@@ -3,7 +3,6 @@
 from pathlib import Path
 
 import numpy as np
-
 from PySide6.QtWidgets import QFileDialog, QWidget
 
 from brdflab.gui.export_dialog import export_dialog

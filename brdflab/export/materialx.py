@@ -12,14 +12,14 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 from brdflab.errors import BRDFLabError
 from brdflab.export.principled import PrincipledExport, dropped_error
 from brdflab.models.principled import clearcoat_alpha, specular_eta, tint
 
-import numpy as np
 
-
-def _colour(values) -> "object":
+def _colour(values) -> object:
     import MaterialX as mx
 
     return mx.Color3(*(float(v) for v in values))
