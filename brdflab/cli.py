@@ -532,6 +532,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     except OSError as e:
         raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
     warn = _warner(args)
+    if env is not None and args.format != "mitsuba":
+        warn(f"--env is for a Mitsuba scene's map: a {args.format} export has none")
     for line in warnings:
         warn(line)
     _emit(args, {"out": str(out), "format": args.format, "warnings": warnings}, f"wrote {args.format} export to {out}")

@@ -98,6 +98,11 @@ def export_gltf(export: PrincipledExport, path: Path, name: str) -> list[str]:
         error, relative = dropped_error(export, dropped)
         warnings.append(f"gltf: {' and '.join(dropped)} not carried: Ngan {error:.4g} ({100 * relative:.1f} % of the material)")
     if export.params["clearcoat"] > 0.0:
+        error, relative = dropped_error(export, {"clearcoat": 0.0})
         warnings.append("gltf: the clear coat is carried approximately (KHR_materials_clearcoat, a GGX layer: "
-                        "clearcoat / 4, roughness √α)")
+                        f"clearcoat / 4, roughness √α); the whole coat is Ngan {error:.4g} ({100 * relative:.1f} % of the material)")
+    if export.params["sheen"] > 0.0:
+        error, relative = dropped_error(export, {"sheen": 0.0})
+        warnings.append("gltf: the sheen is carried approximately (KHR_materials_sheen's Charlie lobe of roughness 0.5, "
+                        f"not Disney's Schlick sheen); the whole sheen is Ngan {error:.4g} ({100 * relative:.1f} % of the material)")
     return warnings

@@ -23,6 +23,7 @@ from lxml import etree
 from brdflab.export.principled import PrincipledExport
 
 MIN_SPECULAR = 1e-4
+ANISOTROPY_SAID = 0.01  # below this the highlights' orientation does not show
 NAMES = {"subsurface": "flatness", "specular_tint": "spec_tint"}
 
 
@@ -42,7 +43,7 @@ def scene_text(export: PrincipledExport, env_file: str, env_width: int, name: st
                spp: int = 256) -> bytes:
     """The scene XML; `env_file` is the lat-long map's path as the scene names it."""
     scene = etree.Element("scene", version="3.0.0")
-    scene.append(etree.Comment(f" {name}: exported by brdflab; the lab's reference view (CONVENTIONS.md) "))
+    scene.append(etree.Comment(f" {name}: exported by brdflab; the lab's reference view (brdflab's docs/conventions.md) "))
     for warning in export.warnings:
         scene.append(etree.Comment(" " + warning.replace("--", "- -") + " "))
     etree.SubElement(scene, "default", name="spp", value=str(spp))
@@ -78,7 +79,10 @@ def export_mitsuba(export: PrincipledExport, path: Path, env, name: str) -> list
     write_exr(env_path, env.data)
     atomic_write(path, scene_text(export, env_path.name, env.data.shape[1], name))
     warnings = list(export.warnings)
-    if export.params.get("anisotropic", 0.0) > 0.0:
-        warnings.append("mitsuba: anisotropy follows each shape's own tangents (the sphere's dp/du), the lab's "
-                        "the projected X axis: anisotropic highlights on the sphere differ")
+    if export.params["anisotropic"] >= ANISOTROPY_SAID:
+        warnings.append(f"mitsuba: anisotropic = {export.params['anisotropic']:.3g} follows each shape's own tangents "
+                        "(the sphere's dp/du), the lab's the projected X axis: anisotropic highlights on the sphere differ")
+    if export.params["specular"] < MIN_SPECULAR:
+        warnings.append(f"mitsuba: specular = {export.params['specular']:.3g} is written as {MIN_SPECULAR:g} (at 0 Mitsuba "
+                        "drops the whole main lobe, the metal too)")
     return warnings

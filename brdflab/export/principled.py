@@ -60,7 +60,7 @@ def as_principled(source, fmt: str, cancel=None) -> PrincipledExport:
     what = "measured data" if not isinstance(source, AnalyticMaterial) else (
         "+".join(l.model.name for l in source.lobes) + " lobes")
     warning = (f"{fmt}: the source ({what}) is not a principled material; it was fitted to Principled on the way "
-               f"out: Ngan error {result.error:.4g} ({100 * relative:.1f} % of the source's own)")
+               f"out: Ngan error {result.error:.4g}, {100 * relative:.1f} % of the source's own size (a black BRDF's error)")
     return PrincipledExport(dict(result.material.lobes[0].params), exact=False, error=result.error,
                             relative_error=relative, warnings=[warning])
 
