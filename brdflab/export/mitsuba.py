@@ -49,7 +49,8 @@ def scene_text(export: PrincipledExport, env_file: str, env_width: int, name: st
     etree.SubElement(scene, "default", name="spp", value=str(spp))
     etree.SubElement(scene, "default", name="resx", value=str(resolution))
     etree.SubElement(scene, "default", name="resy", value=str(resolution))
-    etree.SubElement(scene, "integrator", type="direct")
+    integrator = etree.SubElement(scene, "integrator", type="direct")
+    etree.SubElement(integrator, "boolean", name="hide_emitters", value="true")  # the reference view: 0 off the sphere
     sensor = etree.SubElement(scene, "sensor", type="orthographic")
     transform = etree.SubElement(sensor, "transform", name="to_world")
     etree.SubElement(transform, "lookat", origin="0, 0, 5", target="0, 0, 0", up="0, 1, 0")
