@@ -52,7 +52,8 @@ def test_auto_stores_what_auto_fit_picks_and_shows_the_ladder(window, qtbot):
     lobes = [l.model.name for l in stored.material.lobes if l.channel in (None, 0)]
     assert lobes == ["Lambertian", *direct.chosen.lobes]
     assert stored.statistics["heldBackError"] == direct.chosen.error_held_back
-    assert stored.error == direct.chosen.error_fitted
+    assert stored.error == direct.error  # the pick's error over every sample of the slice (issue 30 §5)
+    assert direct.samples > direct.fitted_samples
     assert window.workspace.shown_fit == 0 and window.undo_stack.undoText() == "Auto fit"
     assert f"Auto chose {_label(direct.chosen.lobes)}" in panel.status.text()
     assert panel.fits.item(0).text().startswith(f"0: {_label(direct.chosen.lobes)}  ")  # every lobe named
