@@ -92,9 +92,14 @@ class Family:
 
 
 def families(models: list[str]) -> list[Family]:
-    """The Lambertian alone, then every model with one and two lobes, Linear and Fixed."""
+    """The Lambertian alone, then every model with one and two lobes, Linear and Fixed (a
+    model that carries its own magnitude and colour, Principled, Linear only: a fit refuses it
+    in a Fixed material)."""
+    from brdflab.models import get_model
+
     out = [Family("Lambertian", 0, c) for c in ("Linear", "Fixed")]
-    return out + [Family(m, n, c) for m in models if m != "Lambertian" for n in (1, 2) for c in ("Linear", "Fixed")]
+    return out + [Family(m, n, c) for m in models if m != "Lambertian" for n in (1, 2)
+                  for c in (("Linear", "Fixed") if get_model(m).scaled else ("Linear",))]
 
 
 def design(slices: list[str], matrix: Matrix) -> list[tuple[str, Family, int | None]]:
