@@ -10,7 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdflab.export.glsl import _material, glsl_float, library_source, lobe_call, parameter_array
+from brdflab.export.glsl import (
+    _material,
+    glsl_float,
+    library_source,
+    lobe_call,
+    parameter_array,
+)
 from brdflab.render.glsl import lobe_uniforms
 
 

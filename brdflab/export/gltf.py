@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.export.principled import PrincipledExport, dropped_error
-from brdflab.models.principled import clearcoat_alpha, specular_eta, tint
+from brdflab.models.principled import clearcoat_alpha
 
 SPHERE_RINGS, SPHERE_SEGMENTS = 48, 96
 
@@ -35,16 +35,15 @@ def uv_sphere(rings: int = SPHERE_RINGS, segments: int = SPHERE_SEGMENTS) -> tup
 
 def material_extensions(export: PrincipledExport) -> dict:
     p = export.params
-    colour = np.array(export.base_color)
-    out = {"KHR_materials_ior": {"ior": float(specular_eta(max(p["specular"], 1e-4)))}}
+    out = {"KHR_materials_ior": {"ior": export.eta}}
     if p["specular_tint"] > 0.0:
         out["KHR_materials_specular"] = {"specularFactor": 1.0, "specularColorFactor":
-                                         [float(v) for v in 1.0 + p["specular_tint"] * (tint(colour) - 1.0)]}
+                                         [float(v) for v in export.tinted("specular_tint")]}
     if p["clearcoat"] > 0.0:
         out["KHR_materials_clearcoat"] = {"clearcoatFactor": 0.25 * p["clearcoat"],
                                           "clearcoatRoughnessFactor": float(np.sqrt(clearcoat_alpha(p["clearcoat_gloss"])))}
     if p["sheen"] > 0.0:
-        out["KHR_materials_sheen"] = {"sheenColorFactor": [float(v) for v in p["sheen"] * (1.0 + p["sheen_tint"] * (tint(colour) - 1.0))],
+        out["KHR_materials_sheen"] = {"sheenColorFactor": [float(v) for v in p["sheen"] * export.tinted("sheen_tint")],
                                       "sheenRoughnessFactor": 0.5}
     return out
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.export.principled import PrincipledExport, dropped_error
-from brdflab.models.principled import clearcoat_alpha, specular_eta, tint
+from brdflab.models.principled import clearcoat_alpha
 
 
 def _colour(values) -> object:
@@ -29,9 +29,7 @@ def surface_inputs(export: PrincipledExport) -> dict[str, dict[str, object]]:
     """Input values of each node, by node category."""
     p = export.params
     colour = np.array(export.base_color)
-    specular_colour = 1.0 + p["specular_tint"] * (tint(colour) - 1.0)
-    sheen_colour = 1.0 + p["sheen_tint"] * (tint(colour) - 1.0)
-    eta = float(specular_eta(max(p["specular"], 1e-4)))
+    specular_colour, sheen_colour, eta = export.tinted("specular_tint"), export.tinted("sheen_tint"), export.eta
     coat, coat_roughness = 0.25 * p["clearcoat"], float(np.sqrt(clearcoat_alpha(p["clearcoat_gloss"])))
     return {
         "standard_surface": {

@@ -20,9 +20,8 @@ from pathlib import Path
 
 from lxml import etree
 
-from brdflab.export.principled import PrincipledExport
+from brdflab.export.principled import MIN_SPECULAR, PrincipledExport
 
-MIN_SPECULAR = 1e-4
 ANISOTROPY_SAID = 0.01  # below this the highlights' orientation does not show
 NAMES = {"subsurface": "flatness", "specular_tint": "spec_tint"}
 

@@ -14,7 +14,9 @@ import numpy as np
 
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import get_model
-from brdflab.models.principled import CHANNELS
+from brdflab.models.principled import CHANNELS, specular_eta, tint
+
+MIN_SPECULAR = 1e-4  # Mitsuba drops its whole main lobe at specular = 0 (η = 1); what the exports write at least
 
 
 @dataclass
@@ -30,6 +32,15 @@ class PrincipledExport:
     @property
     def base_color(self) -> list[float]:
         return [self.params[f"base_color_{c}"] for c in CHANNELS]
+
+    @property
+    def eta(self) -> float:
+        """The specular IOR the exports write, η(max(specular, MIN_SPECULAR))."""
+        return float(specular_eta(max(self.params["specular"], MIN_SPECULAR)))
+
+    def tinted(self, amount: str) -> np.ndarray:
+        """White blended towards the base colour's hue by parameter `amount` (specular_tint, sheen_tint)."""
+        return 1.0 + self.params[amount] * (tint(np.array(self.base_color)) - 1.0)
 
     def material(self, name: str = "principled") -> AnalyticMaterial:
         return AnalyticMaterial(name, "Linear", 3, [Lobe(get_model("Principled"), dict(self.params), [1.0, 1.0, 1.0])])
