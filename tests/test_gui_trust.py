@@ -179,6 +179,9 @@ def test_clicking_fit_moves_no_control_and_stop_stays_under_the_mouse(window, qt
     qtbot.mouseClick(f.stop_button, Qt.LeftButton)
     qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
     assert f.fit_button.mapTo(window, QPoint(0, 0)).y() == stop_at.y()
+    f.status.setText("a status many lines long " * 40)  # a longer status moves no button either
+    qtbot.wait(50)
+    assert f.fit_button.mapTo(window, QPoint(0, 0)).y() == stop_at.y()
 
 
 def test_lobe_buttons_stay_put_whichever_lobe_is_selected(window, qtbot):

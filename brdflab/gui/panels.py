@@ -464,6 +464,20 @@ class WrappedLabel(QLabel):
         self.setMinimumHeight(self.heightForWidth(max(self.width(), 1)) if self.text() else 0)
 
 
+class StatusLines(QLabel):
+    """A word-wrapped status of a fixed number of lines: a status that grows by a line must not
+    move the buttons above it (a click at Fit's place would miss). Text past the last line is
+    cut and the whole text is the tooltip."""
+
+    def __init__(self, lines: int = 3) -> None:
+        super().__init__(wordWrap=True, alignment=Qt.AlignLeft | Qt.AlignTop)
+        self.setFixedHeight(lines * self.fontMetrics().lineSpacing() + 4)
+
+    def setText(self, text: str) -> None:
+        super().setText(text)
+        self.setToolTip(text)
+
+
 class ObjectControls(QWidget):
     """Lighting mode (or auto: the cheapest predicted within a tolerance), samples, exposure,
     environment rotation, which material is shown."""
@@ -659,8 +673,7 @@ class FittingPanel(QWidget):
         keep.setRetainSizeWhenHidden(True)  # showing it moves nothing
         self.progress.setSizePolicy(keep)
         self.progress.setVisible(False)
-        self.status = QLabel("")
-        self.status.setWordWrap(True)  # a long status must not widen the dock
+        self.status = StatusLines()  # a long status neither widens the dock nor moves a button
         self.fit_button.clicked.connect(self._request)
         self.auto_button.clicked.connect(self._request_auto)
         self.ladder_button.clicked.connect(self.ladder_requested.emit)
