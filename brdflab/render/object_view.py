@@ -587,6 +587,10 @@ class Progressive:
         self.settings = settings
         ctx = renderer.ctx
         self.texture = ctx.texture((settings.width, settings.height), 4, dtype="f4")
+        # read texel by texel: bilinear reads (the default) at a display's pixel centres gave a
+        # background pixel beside the object a sliver of its coverage (alpha > 0), so it was
+        # drawn as the object with ~0 radiance, a black one-pixel ring round the silhouette
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.depth = ctx.depth_texture((settings.width, settings.height))
         self.fbo = ctx.framebuffer([self.texture], self.depth)
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
