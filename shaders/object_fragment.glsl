@@ -52,6 +52,24 @@ vec3 filtered_env(vec3 d, float omega_s) {
     return lod <= -1.0 ? texel : mix(texel, textureLod(u_env, uv, 0.0).rgb, lod + 1.0);
 }
 
+#ifdef MODE_MIS
+// This pixel's Cranley–Patterson shift of the shared sample set (a PCG hash of its position):
+// every pixel sampling the same map directions turned MIS's noise at low counts into a
+// pattern (all pixels wrong the same way); shifted, each pixel's set is still the stratified
+// set, unbiased, and its error independent of its neighbours'.
+uint pcg_hash(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+vec2 pixel_shift() {
+    uvec2 p = uvec2(gl_FragCoord.xy);
+    uint a = pcg_hash(p.x + pcg_hash(p.y));
+    return vec2(a, pcg_hash(a)) * (1.0 / 4294967296.0);
+}
+#endif
+
 void main() {
 #ifdef GEOMETRY_REFERENCE
     float r2 = dot(v_ndc, v_ndc);
@@ -94,6 +112,7 @@ void main() {
     }
 #endif
 #ifdef MODE_MIS
+    vec2 shift = pixel_shift();
     // Veach's multi-sample estimator: a sample from strategy k adds w_k f L cos / (c_k p_k),
     // c_k the strategy's share of the samples, w_k the power heuristic over c p. The map is
     // read unfiltered, texel by texel (the function its density follows): filtering it over
@@ -101,6 +120,7 @@ void main() {
     // MIS its unbiasedness or its low variance (docs/mis.md).
     for (int i = u_sample_begin; i < u_sample_end; i++) {
         vec4 s = texelFetch(u_samples, ivec2(i % u_sample_row, i / u_sample_row), 0);
+        s.xy = fract(s.xy + shift);
         bool from_env = s.z < 0.0;
         vec3 wi, d;
         if (from_env) {

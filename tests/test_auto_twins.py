@@ -6,14 +6,27 @@ highlight and weigh the view."""
 import numpy as np
 import pytest
 
-from brdflab.lighting.auto_twins import (PilotPixels, converged_pixels, fis_errors, fis_pixels, fis_pixels_of,
-                                         mis_errors, mis_pixels, view_pilot)
+from brdflab.lighting.auto_twins import (
+    PilotPixels,
+    converged_pixels,
+    fis_errors,
+    fis_pixels,
+    fis_pixels_of,
+    mis_errors,
+    mis_pixels,
+    view_pilot,
+)
 from brdflab.lighting.env_sampling import environment_distribution
 from brdflab.lighting.envmap import EnvironmentMap, texel_of, uv_to_direction
 from brdflab.lighting.mip_pyramid import solid_angle_mips
-from brdflab.lighting.reference_view import refined_environment_image, relative_rmse, sphere_view
+from brdflab.lighting.reference_view import (
+    refined_environment_image,
+    relative_rmse,
+    sphere_view,
+)
+from brdflab.lighting.sampling_sets import pixel_shifts
 from brdflab.material.analytic import AnalyticMaterial, Lobe
-from brdflab.render.object_view import ObjectRenderer, RenderSettings
+from brdflab.render.object_view import ObjectRenderer, Progressive, RenderSettings
 
 SIZE = 24
 
@@ -57,7 +70,9 @@ def test_twin_reproduces_the_renderer(renderer, mode, count):
     if mode == "fis":
         twin = fis_pixels(mat, mat, [level.astype(float) for level in solid_angle_mips(env.data)], frames(SIZE), count)
     else:
-        twin = mis_pixels(mat, mat, env, environment_distribution(env), frames(SIZE), count)
+        rows, cols = np.nonzero(sphere_view(SIZE, SIZE).inside)  # the shader's per-pixel shifts (y from the bottom)
+        twin = mis_pixels(mat, mat, env, environment_distribution(env), frames(SIZE), count,
+                          pixel_shifts(cols, SIZE - 1 - rows))
     assert np.abs(twin - gpu).max() <= 1e-4 * np.abs(gpu).max()
 
 
@@ -77,9 +92,22 @@ def test_sub_texel_lobe_converges_to_the_quadrature(renderer):
     assert errors[1024] < errors[64] / 2, errors
 
 
+def _seeded(renderer, settings: RenderSettings, seed: int) -> np.ndarray:
+    """One render whose sample set is rotated by `seed`: independent of the other seeds'."""
+    image = Progressive(renderer, settings, seed=seed)
+    try:
+        image.step(settings.samples)
+        raw = np.frombuffer(image.texture.read(), np.float32).reshape(settings.height, settings.width, 4)[::-1]
+    finally:
+        image.release()
+    return raw[:, :, :3] / settings.samples
+
+
 def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     """The pilot's converged value is within 1 % of the quadrature, and its predicted FIS and
-    MIS errors are within 1.5× of the renderer's measured ones under a small sun."""
+    MIS errors are within 1.5× of the renderer's measured ones under a small sun. MIS shifts
+    its set per pixel, so one image's error is one draw: it is measured as the RMS over six
+    independent images (one image ranged 0.45–0.80 % at 256 samples)."""
     mat = material(Lobe.create("Lambertian", [0.2] * 3), Lobe.create("BlinnPhong", [0.5] * 3, Exponent=300.0))
     env = sun_map()
     inside = sphere_view(SIZE, SIZE).inside
@@ -93,7 +121,12 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     pilot = view_pilot(mat, mat, env, uniform)
     for mode, errors in (("fis", fis_errors), ("mis", mis_errors)):
         for n, p in errors(mat, mat, env, (16, 256), pilot).items():
-            measured = relative_rmse(renderer.render(RenderSettings(mode, SIZE, SIZE, samples=n)), reference, inside)
+            settings = RenderSettings(mode, SIZE, SIZE, samples=n)
+            if mode == "fis":
+                measured = relative_rmse(renderer.render(settings), reference, inside)
+            else:
+                measured = float(np.sqrt(np.mean([relative_rmse(_seeded(renderer, settings, seed), reference, inside) ** 2
+                                                  for seed in range(6)])))
             assert measured / 1.5 <= p <= 1.5 * measured, (mode, n, p, measured)
 
 

@@ -142,6 +142,26 @@ def test_mis_on_a_smooth_map_stays_close_to_fis(renderer):
     assert err["mis"] < 5.0 * err["fis"] + 0.002, err
 
 
+@needs_shared("envmaps", "forest.exr")
+@pytest.mark.parametrize("map_name", ["forest.exr", "venice_sunset_1k.hdr", "quarry_01_1k.hdr"])
+def test_mis_errors_of_neighbouring_pixels_are_independent(renderer, map_name):
+    """Issue 30 §3: every pixel drew the same map directions, so at low counts MIS's error
+    was a pattern across the sphere (neighbours' relative errors correlated 0.6–0.9 at 16 and
+    64 samples on these maps); each pixel now shifts the set by its own amount, and stays
+    unbiased (the expected mean test above)."""
+    env = reduced(map_name)
+    renderer.set_environment(env)
+    renderer.set_material(GLOSSY)
+    ref = environment_image(GLOSSY, env, SIZE, SIZE)
+    inside = sphere_view(SIZE, SIZE).inside
+    for n in (16, 64):
+        image = renderer.render(RenderSettings(mode="mis", width=SIZE, height=SIZE, samples=n))
+        error = (image - ref).mean(-1) / np.maximum(ref.mean(-1), 1e-12)
+        both = inside[:, :-1] & inside[:, 1:]
+        correlation = np.corrcoef(error[:, :-1][both], error[:, 1:][both])[0, 1]
+        assert abs(correlation) < 0.2, (n, correlation)
+
+
 @needs_shared("envmaps", "studio.exr")
 @pytest.mark.parametrize("mode", ["fis", "mis"])
 @pytest.mark.parametrize("map_name", ["studio.exr", "quarry_01_1k.hdr", "venice_sunset_1k.hdr"])

@@ -19,6 +19,22 @@ def radical_inverse_2(i: np.ndarray) -> np.ndarray:
     return i.astype(np.float64) / 4294967296.0
 
 
+def _pcg_hash(v: np.ndarray) -> np.ndarray:
+    """PCG's 32-bit output hash, as shaders/object_fragment.glsl's pcg_hash (uint32 wraps)."""
+    with np.errstate(over="ignore"):
+        state = v.astype(np.uint32) * np.uint32(747796405) + np.uint32(2891336453)
+        word = ((state >> ((state >> np.uint32(28)) + np.uint32(4))) ^ state) * np.uint32(277803737)
+    return (word >> np.uint32(22)) ^ word
+
+
+def pixel_shifts(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The MIS shader's Cranley–Patterson shift (n, 2) of pixels (x, y), y counted from the
+    bottom as gl_FragCoord is (its `pixel_shift`, in float32 as the shader computes it): each
+    pixel turns the shared set by its own amount, so neighbours' errors are independent."""
+    a = _pcg_hash(np.asarray(x, np.uint32) + _pcg_hash(np.asarray(y, np.uint32)))
+    return np.stack([a, _pcg_hash(a)], axis=-1).astype(np.float32) * np.float32(1.0 / 4294967296.0)
+
+
 def hammersley(n: int) -> np.ndarray:
     i = np.arange(n)
     return np.stack([(i + 0.5) / n, radical_inverse_2(i)], axis=1)
