@@ -27,7 +27,7 @@ uniform float u_scale_b;
 uniform float u_split;
 out vec4 frag;
 
-vec3 heat(float t) {  // 0 black → red → yellow → white at 1
+vec3 heat(float t) {  // 0 black → red → yellow → white at 1; the legend's is object_view.difference_colour
     return clamp(vec3(3.0 * t, 3.0 * t - 1.0, 3.0 * t - 2.0), 0.0, 1.0);
 }
 

@@ -6,7 +6,7 @@ import os
 import numpy as np
 import pytest
 import test_gui
-from test_gui_trust import shot
+from test_gui_trust import _measured, shot
 
 window = test_gui.window  # the fixture: a main window, shown
 
@@ -69,3 +69,103 @@ def test_the_object_has_no_dark_ring_against_a_bright_background(window, qtbot):
     # the map behind is smooth: a background pixel at the edge is as bright as the next one out
     assert np.mean(outside < 0.7) < 0.005, f"{np.mean(outside < 0.7):.1%} of the ring is dark, min {outside.min():.2f}"
     assert np.median(outside) == pytest.approx(1.0, abs=0.05)
+
+
+def _shader_difference_colours(view, values) -> np.ndarray:
+    """What the view's own display shader draws for relative differences `values`: an original
+    of luminance 1 beside a fit of 1 − v, one pixel each, read back as 8-bit RGB."""
+    from types import SimpleNamespace
+
+    import moderngl
+
+    n = len(values)
+    original = np.ones((n, 4), np.float32)
+    fit = np.ones((n, 4), np.float32)
+    fit[:, :3] = (1.0 - np.asarray(values, np.float32))[:, None]
+    with view.current():
+        view.settle()
+        ctx = view.ctx
+        a, b = (ctx.texture((n, 1), 4, x.tobytes(), dtype="f4") for x in (original, fit))
+        for t in (a, b):
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        out = ctx.texture((n, 1), 4)
+        fbo = ctx.framebuffer([out])
+        try:
+            fbo.use()
+            ctx.viewport = (0, 0, n, 1)
+            view.display.draw(SimpleNamespace(texture=a, samples=1), other=SimpleNamespace(texture=b, samples=1),
+                              compare="difference")
+            rgb = np.frombuffer(out.read(alignment=1), np.uint8).reshape(n, 4)[:, :3].copy()
+        finally:
+            for obj in (fbo, out, a, b):
+                obj.release()
+    return rgb
+
+
+def _difference_window(window, qtbot, tmp_path):
+    """A measured original and a poor fit of it (a dull Lambertian), shown as their difference
+    under the point light; returns the view once both images are drawn."""
+    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.io.xmlio import Fitting
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+
+    test_gui.open_and_wait(qtbot, window, window.open_path, _measured(tmp_path, "truth", 0.2))
+    fit = AnalyticMaterial("f", "Linear", 3, [Lobe.create("Lambertian", [0.25] * 3)])
+    window.undo_stack.push(ReplaceFittings(window, ((), None), ((Fitting(fit, 0.1),), 0), "fit"))
+    window.object_controls.mode.setCurrentText("point")
+    window.object_controls.shown.setCurrentText("difference")
+    view = window.object_view
+    qtbot.waitUntil(lambda: view.comparing and view._progressive is not None and view.samples_done >= 1
+                    and view._progressive_b is not None and view._progressive_b.samples >= 1, timeout=30000)
+    qtbot.waitUntil(lambda: view.difference_legend() is not None, timeout=10000)
+    qtbot.wait(300)
+    return view
+
+
+def test_the_difference_view_has_a_legend_in_the_shaders_colours(window, qtbot, tmp_path):
+    from brdflab.render.object_view import DIFFERENCE_TICKS, difference_colour
+
+    view = _difference_window(window, qtbot, tmp_path)
+    box, bar, labels = view.difference_legend()
+    assert view.rect().contains(box)  # drawn inside the view, where the user looks
+    assert [v for v, _, _ in labels] == list(DIFFERENCE_TICKS) == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert [text for _, _, text in labels] == ["0", "25", "50", "75", "100 %"]
+    # what the window shows (the view's image and the legend painted over it), at the bar's labelled columns
+    shown = _rgb(window.grab().toImage())
+    shot(window, "g_difference_legend_window")
+    shot(view, "g_difference_legend_view")
+    from PySide6.QtCore import QPoint
+
+    middle = bar.top() + bar.height() // 2
+    at_labels = np.array([shown[p.y(), p.x()] for p in (view.mapTo(window, QPoint(x, middle)) for _, x, _ in labels)])
+    shader = _shader_difference_colours(view, [v for v, _, _ in labels])
+    assert np.abs(at_labels.astype(int) - shader).max() <= 1, (at_labels, shader)
+    # black, 75 % red, orange, light yellow, white: the ramp the legend labels
+    assert np.abs(shader.astype(int) - [[0, 0, 0], [191, 0, 0], [255, 128, 0], [255, 255, 64], [255, 255, 255]]).max() <= 1
+    # and every column between: the bar is the shader's ramp, column i at i / (width − 1)
+    row = np.array([shown[p.y(), p.x()] for p in (view.mapTo(window, QPoint(bar.left() + i, middle))
+                                                  for i in range(bar.width()))])
+    between = _shader_difference_colours(view, np.arange(bar.width()) / (bar.width() - 1))
+    assert np.abs(row.astype(int) - between).max() <= 1
+    # the object itself: its pixels' relative differences, from the two images, coloured as the legend says
+    with view.current():
+        a, b = (np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)[::-1]
+                for p in (view._progressive, view._progressive_b))
+    la, lb = (np.maximum(x[..., :3] @ LUMINANCE.astype(np.float32), 0) for x in (a, b))
+    covered = a[..., 3] > 0
+    covered[box.top():box.bottom() + 1, box.left():box.right() + 1] = False  # under the legend
+    t = np.abs(la - lb) / np.maximum(np.maximum(la, lb), 1e-6)
+    exported = _rgb(view.grabFramebuffer())  # what File → Export image saves: the legend with it
+    assert np.abs(exported[middle, [x for _, x, _ in labels]].astype(int) - shader).max() <= 1
+    drawn = exported[covered].astype(int)
+    expected = np.round(255 * difference_colour(t[covered]))
+    assert covered.sum() > 1000 and np.ptp(t[covered]) > 0.5  # a range of differences, not one colour
+    assert np.abs(drawn - expected).max() <= 2
+    # a view at its narrowest has the legend whole, on whole columns for its labels
+    for width in (view.minimumWidth(), 259, 260, 1000):
+        box, bar, labels, _ = view._legend_geometry(view.fontMetrics(), width, view.minimumHeight())
+        assert box.left() >= 0 and box.right() < width and box.top() >= 0 and box.contains(bar)
+        assert [x for _, x, _ in labels] == [bar.left() + v * (bar.width() - 1) for v in DIFFERENCE_TICKS]
+    # shown only with the difference
+    window.object_controls.shown.setCurrentText("original | fit")
+    qtbot.waitUntil(lambda: view.difference_legend() is None, timeout=10000)

@@ -15,7 +15,7 @@ from contextlib import contextmanager
 
 import moderngl
 import numpy as np
-from PySide6.QtCore import QPointF, Qt, QTimer, Signal
+from PySide6.QtCore import QPointF, QRect, Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QImage, QPainter
 from PySide6.QtWidgets import QWidget
 
@@ -23,7 +23,15 @@ from brdflab.errors import BRDFLabError
 from brdflab.render.context import create_context
 from brdflab.render.fence import Fence
 from brdflab.render.lobe_view import LobeViewer
-from brdflab.render.object_view import SAMPLED_MODES, Display, ObjectRenderer, RenderSettings, negative_pixels
+from brdflab.render.object_view import (
+    DIFFERENCE_TICKS,
+    SAMPLED_MODES,
+    Display,
+    ObjectRenderer,
+    RenderSettings,
+    difference_colour,
+    negative_pixels,
+)
 
 BACKGROUND = (0.12, 0.12, 0.14)
 
@@ -363,6 +371,8 @@ class ObjectView(_GLView):
         self._scene_b: tuple | None = None  # the scene _renderer_b was built for
         self._progressive_b = None
         self._table_note: str | None = None  # what table_shown last said
+        self._drawing_difference = False  # the frame issued is the difference view: it gets a legend
+        self._legend: tuple | None = None  # the legend on the frame shown (difference_legend)
         self._timer = QTimer(self)
         self._timer.setInterval(self.POLL_MS)
         self._timer.timeout.connect(self._refine)
@@ -599,19 +609,80 @@ class ObjectView(_GLView):
             self._timer.start()
         super().paintEvent(event)
 
+    LEGEND_MARGIN = 8  # px from the view's bottom-left corner
+    LEGEND_TITLES = ("|fit − original| ÷ the brighter (luminance)", "|fit − orig.| ÷ brighter")  # the first that fits
+
+    def difference_legend(self) -> tuple[QRect, QRect, list[tuple[float, int, str]]] | None:
+        """The difference view's legend on the image shown, None when it shows no difference:
+        (its box, its colour bar, and per label its value, the bar's column x at that value and
+        its text), in the view's coordinates. The bar's column i shows the relative difference
+        i / (width − 1), coloured as the shader colours it."""
+        return self._legend
+
+    def _legend_geometry(self, fm, width: int, height: int) -> tuple[QRect, QRect, list[tuple[float, int, str]], str]:
+        """Where the legend goes in an image `width` × `height` (logical px), by font metrics `fm`;
+        with its title."""
+        columns = 201 if width >= 260 else 101  # 0, 25, 50, 75, 100 % on whole columns
+        pad, line = 6, fm.height()
+        room = width - 2 * (self.LEGEND_MARGIN + pad)
+        title = next((t for t in self.LEGEND_TITLES if fm.horizontalAdvance(t) <= room), self.LEGEND_TITLES[-1])
+        title_w = fm.horizontalAdvance(title)
+        box_w = max(columns, title_w) + 2 * pad + fm.horizontalAdvance("100 %") // 2
+        box_h = pad + line + 4 + 12 + 3 + line + pad
+        box = QRect(self.LEGEND_MARGIN, height - self.LEGEND_MARGIN - box_h, box_w, box_h)
+        bar = QRect(box.left() + pad + fm.horizontalAdvance("0") // 2, box.top() + pad + line + 4, columns, 12)
+        labels = [(v, bar.left() + round(v * (columns - 1)), f"{100 * v:.0f}" + (" %" if v == 1.0 else ""))
+                  for v in DIFFERENCE_TICKS]
+        return box, bar, labels, title
+
+    def _paint_legend(self, frame: QImage) -> None:
+        """Over a difference image: a dark box with what the colours measure, the colour bar and
+        its values under ticks; painted into the image, so that grabbing and exporting it keep it."""
+        painter = QPainter(frame)
+        try:
+            painter.setFont(self.font())
+            fm = painter.fontMetrics()
+            r = frame.devicePixelRatio()
+            box, bar, labels, title = self._legend_geometry(fm, round(frame.width() / r), round(frame.height() / r))
+            self._legend = box, bar, labels
+            painter.fillRect(box, QColor(0, 0, 0, 170))
+            painter.setPen(QColor(235, 235, 235))
+            painter.drawText(box.left() + 6, box.top() + 6 + fm.ascent(), title)
+            rgb = np.round(255.0 * difference_colour(np.arange(bar.width()) / (bar.width() - 1))).astype(np.uint8)
+            strip = np.ascontiguousarray(np.broadcast_to(rgb[None], (bar.height(), bar.width(), 3)))
+            painter.drawImage(bar.topLeft(), QImage(strip.tobytes(), bar.width(), bar.height(), 3 * bar.width(),
+                                                    QImage.Format_RGB888))
+            painter.setPen(QColor(120, 120, 120))  # a frame just outside the bar: its black end stays seen
+            painter.drawRect(bar.adjusted(-1, -1, 0, 0))
+            painter.setPen(QColor(235, 235, 235))
+            baseline = bar.bottom() + 3 + fm.ascent()
+            for _, x, text in labels:
+                painter.drawLine(x, bar.bottom() + 1, x, bar.bottom() + 3)
+                painter.drawText(x - fm.horizontalAdvance(text.split()[0]) // 2, baseline, text)
+        finally:
+            painter.end()
+
     def paintGL(self) -> None:
         fbo = self.framebuffer()
         w, h = self.pixel_size()
         self.ctx.viewport = (0, 0, w, h)
         image = self._progressive
+        self._drawing_difference = False
         if self.blank or image is None or image.samples == 0:
             fbo.clear(*BACKGROUND, 1.0)
             return
         lit_by_map = image.settings.mode in ("fis", "sh", "prefiltered", "mis")
         other = self._progressive_b if self.comparing and self._progressive_b is not None else None
+        self._drawing_difference = other is not None and self.compare == "difference"
         self.display.draw(image, self.exposure, self.reinhard, gamma=self.gamma,
                           environment=self.renderer if lit_by_map else None, other=other,
                           compare=self.compare, split=self.split)
+
+    def _read_frame(self) -> None:
+        super()._read_frame()
+        self._legend = None
+        if self._drawing_difference:
+            self._paint_legend(self._frame)
 
     def resizeGL(self, w: int, h: int) -> None:
         self._release(self._progressive, self._progressive_b)

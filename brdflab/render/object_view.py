@@ -554,6 +554,16 @@ class ObjectRenderer:
 
 GL_BLEND = 0x0BE2
 
+DIFFERENCE_TICKS = (0.0, 0.25, 0.5, 0.75, 1.0)  # the values the difference view's legend labels
+
+
+def difference_colour(t) -> np.ndarray:
+    """The difference view's false colour of relative luminance differences `t` (1 = 100 %),
+    as display.glsl's heat() draws it: black at 0, pure red at 1/3, yellow at 2/3, white at 1
+    (the largest: |a − b| / max(a, b) ≤ 1). RGB in [0, 1], shape t.shape + (3,)."""
+    t = np.asarray(t, float)[..., None]
+    return np.clip(3.0 * t - np.array([0.0, 1.0, 2.0]), 0.0, 1.0)
+
 
 def negative_pixels(rgba: np.ndarray) -> tuple[int, int]:
     """(pixels with a negative channel, pixels a surface covers) of an accumulated RGBA image:
@@ -696,7 +706,7 @@ class Display:
         """`environment`: show that renderer's map behind the object, seen through its camera
         and turned as its lighting is (image.settings). `other`: a second image of the same
         scene (a fit beside its original), shown right of `split` ("split") or as the relative
-        luminance difference in false colour ("difference": black 0, white 100 %)."""
+        luminance difference in false colour ("difference": difference_colour, black 0, white 100 %)."""
         _set_state(self.ctx, depth=False, blend=False)
         image.texture.use(0)
         _set(self.program, "u_image", 0)
