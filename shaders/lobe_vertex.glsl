@@ -8,6 +8,8 @@ uniform bool u_cosine;       // multiply by cos θo
 uniform int u_channel;       // 0, 1, 2 or 3 = luminance
 uniform float u_gain;
 uniform mat4 u_view_projection;
+uniform vec3 u_eye;          // the camera, in the lobe's frame
+uniform float u_depth_bias;  // depth only: this far nearer the eye, along its view ray
 #ifdef SOURCE_TEXTURE
 uniform sampler2D u_values;  // x = φo / 2π, y = θo / (π/2)
 #endif
@@ -30,5 +32,10 @@ void main() {
     float v = max(channel_value(f), 0.0) * (u_cosine ? max(wo.z, 0.0) : 1.0);
     float r = u_transfer == 1 ? pow(v, 1.0 / 3.0) : (u_transfer == 2 ? log(1.0 + v) : v);
     g_position = u_gain * r * wo;
-    gl_Position = u_view_projection * vec4(g_position, 1.0);
+    // moved along the ray from the eye, the vertex projects to the same pixel: only its depth
+    // changes (shading uses g_position)
+    vec3 to_eye = u_eye - g_position;
+    float eye_distance = length(to_eye);
+    vec3 tested = g_position + (eye_distance > 0.0 ? min(u_depth_bias, 0.5 * eye_distance) / eye_distance : 0.0) * to_eye;
+    gl_Position = u_view_projection * vec4(tested, 1.0);
 }

@@ -34,6 +34,25 @@ def test_geodesic_hemisphere():
         geodesic_hemisphere(9)
 
 
+def test_the_rim_is_one_circle_just_above_the_horizon():
+    """Every vertex on the hemisphere's open edge sits at z = RIM_Z: the icosahedron's edges do
+    not follow the horizon, and a rim left where they end zigzagged (level 5: from z = 0.001
+    to 0.021), a saw-toothed edge on every lobe."""
+    from brdflab.geometry.geodesic import RIM_Z
+
+    for level in range(8):
+        v, f = geodesic_hemisphere(level)
+        edges, count = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1),
+                                 axis=0, return_counts=True)
+        rim = np.unique(edges[count == 1])
+        assert len(rim) == (count == 1).sum() == 6 * 2**level  # one closed loop
+        assert np.allclose(v[rim, 2], RIM_Z, atol=1e-7) and (v[np.setdiff1d(np.arange(len(v)), rim), 2] > RIM_Z).all()
+        corners = v[f].astype(float)
+        outward = np.einsum("ij,ij->i", np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]),
+                            corners.mean(axis=1))
+        assert (outward > 0).all()  # no triangle folded over by moving its rim vertices
+
+
 def test_parameter_change_changes_the_lobe(viewer):
     viewer.set_fitted(None)
     viewer.set_original(glossy(10.0))

@@ -38,9 +38,12 @@ RIM_Z = 1e-3  # 0.06° above the horizon
 @lru_cache(maxsize=8)
 def geodesic_hemisphere(level: int) -> tuple[np.ndarray, np.ndarray]:
     """Unit directions with z ≥ 0 and the triangles among them, `level` subdivisions deep
-    (level 7: about 164,000 triangles). Vertices on or below the rim are pushed just above
-    it (z = RIM_Z): a BRDF is zero at z = 0 exactly, so a rim at z = 0 would fold every
-    lobe that is non-zero at grazing angles (a Lambertian) back to the origin."""
+    (level 7: about 164,000 triangles). The rim, every vertex on the surface's open edge,
+    lies on one circle just above the horizon (z = RIM_Z), azimuths kept: a BRDF is zero
+    at z = 0 exactly, so a rim at z = 0 would fold every lobe that is non-zero at grazing
+    angles (a Lambertian) back to the origin; and the subdivided icosahedron's edges do not
+    follow the horizon, so a rim left where they end zigzags between z = RIM_Z and one
+    edge's height (level 5: 1.2°), a saw-toothed edge on every lobe."""
     if not 0 <= level <= 8:
         raise ValueError(f"subdivision level {level} is outside 0..8")
     v, f = icosahedron()
@@ -52,6 +55,11 @@ def geodesic_hemisphere(level: int) -> tuple[np.ndarray, np.ndarray]:
     out = v[used].copy()
     out[:, 2] = np.maximum(out[:, 2], RIM_Z)
     out /= np.linalg.norm(out, axis=1, keepdims=True)
+    edges, count = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1),
+                             axis=0, return_counts=True)
+    rim = np.searchsorted(used, np.unique(edges[count == 1]))  # on an edge of one triangle only
+    azimuth = out[rim, :2] / np.linalg.norm(out[rim, :2], axis=1, keepdims=True)
+    out[rim, :2], out[rim, 2] = azimuth * np.sqrt(1.0 - RIM_Z**2), RIM_Z
     remap = np.full(len(v), -1)
     remap[used] = np.arange(len(used))
     return out.astype(np.float32), remap[f].astype(np.uint32)

@@ -22,6 +22,12 @@ from brdflab.render.glsl import GLSL_VERSION, lobe_uniforms, material_source, mo
 
 TRANSFERS = {"linear": 0, "cbrt": 1, "log": 2}
 TEXTURE_GRID = (360, 90)  # φo × θo samples of non-analytic sources
+# Where the fit and the original are this close (of the largest lobe's radius, 1 on screen)
+# the fit is drawn in front: closer than the drawn surfaces' own accuracy (the auto
+# subdivision's 1 % of the peak; a table is read through a bilinear texture, a model exactly),
+# their order at a pixel meant nothing, and a good fit over its measured original was a
+# speckle of the two colours (z-fighting).
+AGREEMENT = 0.01
 
 
 @dataclass
@@ -183,6 +189,7 @@ class LobeViewer:
         self.ctx.enable_only(moderngl.DEPTH_TEST)
         self.ctx.disable_direct(0x0BE2)  # GL_BLEND
         self.ctx.depth_func = "<"
+        self.ctx.fbo.depth_mask = True
         self._draw_lines(vp)
         for index, layer in enumerate(self._layers):
             if layer is None:
@@ -194,7 +201,7 @@ class LobeViewer:
                 prog["u_values"].value = 0
             values = {"u_wi": tuple(float(x) for x in s.wi), "u_transfer": TRANSFERS[s.transfer],
                       "u_cosine": bool(s.cosine), "u_channel": CHANNELS[s.channel], "u_gain": self.gain(),
-                      "u_eye": tuple(float(x) for x in self._eye())}
+                      "u_eye": tuple(float(x) for x in self._eye()), "u_depth_bias": AGREEMENT if index == 1 else 0.0}
             for name, value in values.items():
                 if name in prog:
                     prog[name].value = value
@@ -206,10 +213,31 @@ class LobeViewer:
                 layer.vaos[index] = self.ctx.vertex_array(prog, [(vbo, "3f", "in_direction")], index_buffer=ibo,
                                                           index_element_size=4)
             if alpha < 1.0:
-                self.ctx.enable_only(moderngl.DEPTH_TEST | moderngl.BLEND)
-                self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-            layer.vaos[index].render(moderngl.TRIANGLES)
+                self._draw_translucent(layer.vaos[index])
+            else:
+                layer.vaos[index].render(moderngl.TRIANGLES)
+
+    def _draw_translucent(self, vao: moderngl.VertexArray) -> None:
+        """A translucent lobe blended once per pixel, its nearest surface only: a depth-only
+        pass first, then the colour where the depth is that pass's. Blended in one pass, its
+        own triangles overlap (the far side of the lobe behind the near side) and each pixel
+        got one or two layers by which triangle came first in the mesh: a speckle of two
+        shades over the whole lobe."""
+        fbo = self.ctx.fbo  # the framebuffer bound by the caller
+        self.ctx.enable_only(moderngl.DEPTH_TEST | moderngl.BLEND)
+        # depth only: the colour is blended away (moderngl 5.13's color_mask setter reaches GL
+        # only when the framebuffer is bound again: a masked pre-pass drew its colour, opaque)
+        self.ctx.blend_func = moderngl.ZERO, moderngl.ONE
+        try:
+            vao.render(moderngl.TRIANGLES)
+            fbo.depth_mask = False
+            self.ctx.depth_func = "<="
+            self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+            vao.render(moderngl.TRIANGLES)
+        finally:
             self.ctx.enable_only(moderngl.DEPTH_TEST)
+            fbo.depth_mask = True
+            self.ctx.depth_func = "<"
 
     def gain(self) -> float:
         """Scale that makes the largest lobe reach radius 1 (same transfer as the shader)."""
