@@ -1,5 +1,5 @@
-"""Issue 30 §1, the lobe viewer: the translucent fit drawn over the original without speckle
-or a saw-toothed rim — in a real window."""
+"""Issue 30 §1, the lobe viewer: an original and a stored fit drawn over it say which is which,
+and the translucent fit is drawn without speckle or a saw-toothed rim — in a real window."""
 
 import numpy as np
 import test_gui
@@ -83,6 +83,60 @@ def rim_reversals(rgb: np.ndarray) -> int:
     steps = np.diff([np.flatnonzero(lobe[:, x])[-1] for x in columns])
     steps = steps[steps != 0]
     return int((np.diff(np.sign(steps)) != 0).sum())
+
+
+def _pixels(image, rect) -> np.ndarray:
+    """(N, 3) RGB of `image` (H, W, 3) inside a QRect (a device pixel ratio of 1: Xvfb's)."""
+    return image[rect.top(): rect.bottom() + 1, rect.left(): rect.right() + 1].reshape(-1, 3).astype(int)
+
+
+def test_the_overlay_says_which_lobe_is_the_original_and_which_the_fit(window, qtbot, tmp_path):
+    view, viewer = window.lobe_view, window.lobe_view.viewer
+    _lobe_rgb(window, qtbot)
+    assert viewer.legend() == [] and view.legend_boxes == []  # one material, no fit: nothing to tell apart
+    open_and_wait(qtbot, window, window.open_path, _measured(tmp_path, "first", 0.2))
+    _lobe_rgb(window, qtbot)
+    assert [t for t, _, _ in viewer.legend()] == ["original: first — solid",
+                                                  "initial guess: Lambertian+LafortuneIso — translucent"]
+    _store_fits(window, [_truth(), _ward()], 1)
+    rgb = _lobe_rgb(window, qtbot)
+    shot(view, "legend_fit1_translucent")
+    assert [t for t, _, _ in viewer.legend()] == ["original: first — solid", "fit 1: Lambertian+Ward — translucent"]
+    background = np.array(BACKGROUND) * 255
+    original, fitted = np.array(viewer.settings.original_color) * 255, np.array(viewer.settings.fitted_color) * 255
+    (o_swatch, o_text), (f_swatch, f_text) = view.legend_boxes
+    # each swatch in the colour its lobe is drawn in: the fit's as seen through, over the background
+    assert np.abs(_pixels(rgb, o_swatch) - original).max() <= 2
+    assert np.abs(_pixels(rgb, f_swatch) - (0.55 * fitted + 0.45 * background)).max() <= 2
+    for text in (o_text, f_text):  # light text on the legend's dark box
+        assert (_pixels(rgb, text).min(axis=1) > 150).sum() > 30
+    # and so is the lobe: where the fit is seen over the background, its pixels are its colour
+    # (shaded) at the swatch's opacity
+    seen = (_lobe_mask(rgb)[..., None] * (rgb.astype(float) - 0.45 * background)).reshape(-1, 3)
+    seen = seen[np.linalg.norm(seen, axis=1) > 20]
+    along_fit = seen @ fitted / np.linalg.norm(seen, axis=1) / np.linalg.norm(fitted)
+    assert (along_fit > 0.998).mean() > 0.1  # 0.16: the fit beside the original, over the background
+    fit1_text = _pixels(rgb, f_text)
+
+    window.fitting.fits.setCurrentRow(0)  # the other stored fit, picked in the list
+    rgb = _lobe_rgb(window, qtbot)
+    assert [t for t, _, _ in viewer.legend()][1] == "fit 0: Lambertian+CookTorrance — translucent"
+    (_, o_text), (_, f_text) = view.legend_boxes
+    assert _pixels(rgb, f_text).shape != fit1_text.shape or (_pixels(rgb, f_text) != fit1_text).any()
+
+    window.lobe_controls.translucent.setChecked(False)
+    rgb = _lobe_rgb(window, qtbot)
+    shot(view, "legend_fit0_solid")
+    assert [t for t, _, _ in viewer.legend()] == ["original: first — solid", "fit 0: Lambertian+CookTorrance — solid"]
+    assert np.abs(_pixels(rgb, view.legend_boxes[1][0]) - fitted).max() <= 2
+
+    total = sum(window.views.sizes())
+    window.views.setSizes([220, total - 220])  # a narrow lobe view: the legend stays inside it
+    qtbot.waitUntil(lambda: view.width() < 260, timeout=5000)
+    qtbot.wait(100)
+    image = view.grabFramebuffer()
+    shot(view, "legend_narrow")
+    assert image.width() == view.width() and all(text.right() < view.width() for _, text in view.legend_boxes)
 
 
 def test_a_translucent_fit_is_drawn_without_speckle(window, qtbot, tmp_path):

@@ -241,8 +241,12 @@ class _GLView(QWidget):
         rows = np.frombuffer(colour.read(alignment=1), np.uint8).reshape(h, w, 4)[::-1]
         frame = QImage(np.ascontiguousarray(rows).tobytes(), w, h, 4 * w, QImage.Format_RGBX8888).copy()
         frame.setDevicePixelRatio(self.devicePixelRatioF())
+        self.decorate(frame)
         self._frame = frame
         super().update()  # repaint: only the image is drawn
+
+    def decorate(self, frame: QImage) -> None:
+        """Paint over a frame read back, before it is shown (and grabbed, and exported)."""
 
     def paintEvent(self, event) -> None:
         painter = QPainter(self)
@@ -320,6 +324,8 @@ class LobeView(_GLView):
 
     def setup(self) -> None:
         self.viewer = LobeViewer(self.ctx)
+        self._legend: list = []  # the viewer's legend for the frame issued
+        self.legend_boxes: list[tuple[QRect, QRect]] = []  # (swatch, text) of each entry, as last painted
 
     def camera(self):
         return self.viewer.camera
@@ -329,6 +335,42 @@ class LobeView(_GLView):
         self.ctx.viewport = (0, 0, w, h)
         self.framebuffer().clear(*BACKGROUND, 1.0, depth=1.0)
         self.viewer.draw(w, h)
+        self._legend = self.viewer.legend()
+
+    def decorate(self, frame: QImage) -> None:
+        """An original and its fit drawn together: a legend in the bottom-left corner says
+        which is which, each by a swatch of its colour as drawn (the translucent one over the
+        background) and its name (BRDFLab and BRDF Explorer label them too). Under the
+        warnings banner's opposite edge: the banner never covers it."""
+        self.legend_boxes = []
+        if not self._legend:
+            return
+        painter = QPainter(frame)
+        try:
+            painter.setRenderHint(QPainter.TextAntialiasing)
+            painter.setFont(self.font())
+            metrics = painter.fontMetrics()
+            line, pad, margin = metrics.height() + 4, 6, 8
+            swatch = metrics.height() - 2
+            r = frame.devicePixelRatio()
+            room = round(frame.width() / r) - 2 * (margin + pad) - swatch - 8
+            # a narrow view shortens the names in their middle: which is which, and how drawn, stay
+            texts = [metrics.elidedText(text, Qt.ElideMiddle, room) for text, _, _ in self._legend]
+            width = 2 * pad + swatch + 8 + max(metrics.horizontalAdvance(text) for text in texts)
+            height = 2 * pad + line * len(self._legend) - 4
+            box = QRect(margin, round(frame.height() / r) - margin - height, width, height)
+            painter.fillRect(box, QColor(0, 0, 0, 170))
+            for k, (text, (_, color, alpha)) in enumerate(zip(texts, self._legend)):
+                top = box.top() + pad + k * line
+                square = QRect(box.left() + pad, top + (line - 4 - swatch) // 2, swatch, swatch)
+                painter.fillRect(square, QColor.fromRgbF(*BACKGROUND))
+                painter.fillRect(square, QColor.fromRgbF(*color, alpha))
+                label = QRect(square.right() + 9, top, width - 2 * pad - swatch - 8, line - 4)
+                painter.setPen(QColor(235, 235, 235))
+                painter.drawText(label, Qt.AlignLeft | Qt.AlignVCenter, text)
+                self.legend_boxes.append((square, label))
+        finally:
+            painter.end()
 
     def drag(self, dx, dy, buttons, modifiers) -> None:
         if buttons & Qt.RightButton or modifiers & Qt.ShiftModifier:

@@ -665,11 +665,29 @@ class MainWindow(QMainWindow):
             return ws.guess  # the initial guess, drawn over the measured original
         return ws.fitted()
 
+    def _lobe_labels(self, original, fitted) -> list[str]:
+        """What the lobe viewer's legend calls the original and the material drawn over it:
+        the stored fit by its number in the Fitting panel's list, a running fit, or the next
+        fit's initial guess."""
+        ws = self.workspace
+        name = getattr(original, "name", "")
+        first = f"original: {name}" if name else "original"
+        if fitted is None:
+            return [first, ""]
+        lobes = "+".join(l.model.name for l in fitted.lobes if l.channel in (None, 0))  # as the list names a fit
+        if fitted is self._candidate:
+            return [first, f"fit running: {lobes}"]
+        if fitted is ws.guess and ws.analytic is None:
+            return [first, f"initial guess: {lobes}"]
+        return [first, f"fit {ws.shown_fit}: {lobes}"]
+
     def _push_lobe_sources(self) -> None:
         original, fitted = self.workspace.original(), self._shown_fit_or_guess()
+        labels = self._lobe_labels(original, fitted)
 
         def apply():
             v = self.lobe_view.viewer
+            v.labels = labels
             if original is not None and isinstance(original, ws_ops.AnalyticMaterial):
                 v.update_material(0, original)
             else:

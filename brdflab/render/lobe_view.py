@@ -68,6 +68,7 @@ class LobeViewer:
         self.camera = OrbitCamera(yaw=35.0, pitch=25.0, distance=3.7)  # a radius-1 lobe fits whole
         self._programs: dict[tuple, moderngl.Program] = {}
         self._layers: list[_Layer | None] = [None, None]
+        self.labels = ["original", "fit"]  # what the legend calls the two layers
         self._mesh_level = None  # what the buffers hold: a level, or a refined surface's key
         self._vbo = self._ibo = None
         self._refined: tuple | None = None  # (key, directions, faces, peak) from refined_surface
@@ -206,8 +207,7 @@ class LobeViewer:
                 if name in prog:
                     prog[name].value = value
             prog["u_view_projection"].write(gl_matrix(vp))
-            color = s.original_color if index == 0 else s.fitted_color
-            alpha = 0.55 if index == 1 and s.translucent_fit else 1.0
+            color, alpha = self.layer_style(index)
             prog["u_color"].value = (*color, alpha)
             if index not in layer.vaos:
                 layer.vaos[index] = self.ctx.vertex_array(prog, [(vbo, "3f", "in_direction")], index_buffer=ibo,
@@ -238,6 +238,25 @@ class LobeViewer:
             self.ctx.enable_only(moderngl.DEPTH_TEST)
             fbo.depth_mask = True
             self.ctx.depth_func = "<"
+
+    def layer_style(self, index: int) -> tuple[tuple, float]:
+        """(colour, alpha) a layer is drawn in: the original solid, the fit translucent or solid."""
+        s = self.settings
+        if index == 0:
+            return s.original_color, 1.0
+        return s.fitted_color, 0.55 if s.translucent_fit else 1.0
+
+    def legend(self) -> list[tuple[str, tuple, float]]:
+        """(label with its style, colour, alpha) of each layer drawn, when two are drawn over
+        each other: which is the original and which the fit."""
+        drawn = [k for k, layer in enumerate(self._layers) if layer is not None]
+        if len(drawn) < 2:
+            return []
+        entries = []
+        for k in drawn:
+            color, alpha = self.layer_style(k)
+            entries.append((f"{self.labels[k]} — {'solid' if alpha >= 1.0 else 'translucent'}", color, alpha))
+        return entries
 
     def gain(self) -> float:
         """Scale that makes the largest lobe reach radius 1 (same transfer as the shader)."""
