@@ -7,7 +7,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QSettings, Qt, QTimer, Slot
-from PySide6.QtGui import QAction, QKeySequence, QUndoCommand, QUndoStack
+from PySide6.QtGui import QAction, QGuiApplication, QKeySequence, QUndoCommand, QUndoStack
 from PySide6.QtWidgets import (QDockWidget, QFileDialog, QLabel, QMainWindow, QMessageBox, QProgressBar, QPushButton,
                                QScrollArea, QSplitter, QVBoxLayout, QWidget)
 
@@ -270,6 +270,7 @@ class MainWindow(QMainWindow):
                 self.views.restoreState(views)
         else:
             self._fit_screen()
+        self._placed = False  # the first show puts the window and its floated panels on screen
         self._object_settings_changed()
         self.set_workspace(self.workspace)
         self.load_model_folders()
@@ -418,6 +419,32 @@ class MainWindow(QMainWindow):
         screen = self.screen().availableGeometry() if self.screen() else None
         if screen is not None:
             self.resize(min(self.width(), screen.width()), min(self.height(), screen.height() - 30))
+
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        if not self._placed:
+            self._placed = True
+            QTimer.singleShot(0, self._place_on_screen)  # once the window manager has framed it
+
+    def _place_on_screen(self) -> None:
+        """The window, then every floated panel, inside the free area of the screen it is on,
+        frame included, the panels raised above the window: a layout saved on a larger (or a
+        detached) screen came back with the window's bottom off-screen and a floated panel
+        behind the window."""
+        for widget in (self, *(d for d in self._docks.values() if d.isFloating() and d.isVisible())):
+            frame = widget.frameGeometry()
+            screen = QGuiApplication.screenAt(frame.center()) or self.screen() or QGuiApplication.primaryScreen()
+            free = screen.availableGeometry()
+            extra_w, extra_h = frame.width() - widget.width(), frame.height() - widget.height()
+            if frame.width() > free.width() or frame.height() > free.height():
+                widget.resize(min(widget.width(), free.width() - extra_w), min(widget.height(), free.height() - extra_h))
+                frame = widget.frameGeometry()
+            x = min(max(frame.x(), free.x()), free.x() + free.width() - frame.width())
+            y = min(max(frame.y(), free.y()), free.y() + free.height() - frame.height())
+            if (x, y) != (frame.x(), frame.y()):
+                widget.move(x, y)
+            if widget is not self:
+                widget.raise_()
 
     def reset_layout(self) -> None:
         """Every panel back where it starts, the two views at their first proportions."""
