@@ -169,3 +169,96 @@ def test_the_difference_view_has_a_legend_in_the_shaders_colours(window, qtbot, 
     # shown only with the difference
     window.object_controls.shown.setCurrentText("original | fit")
     qtbot.waitUntil(lambda: view.difference_legend() is None, timeout=10000)
+
+
+def _drawn_texts(ax, renderer) -> list[tuple[str, object]]:
+    """(text, window extent) of every text an axes draws: title, axis labels, the tick labels
+    inside its limits, offset texts, its own texts and its legend's."""
+    texts = [ax.title, ax.xaxis.label, ax.yaxis.label, ax.xaxis.get_offset_text(), ax.yaxis.get_offset_text(),
+             *ax.texts]
+    for axis in (ax.xaxis, ax.yaxis):
+        for tick in axis._update_ticks():  # the ticks it draws (those within its view limits)
+            texts += [tick.label1, tick.label2]
+    if ax.get_legend() is not None:
+        texts += ax.get_legend().get_texts()
+    return [(t.get_text(), t.get_window_extent(renderer)) for t in texts if t.get_visible() and t.get_text()]
+
+
+def layout_clashes(figure) -> list[str]:
+    """Where the figure's texts collide: a text of one axes (colour bars included) over another
+    axes' frame or texts, two texts of one axes over each other, a text past the figure's edge."""
+    from matplotlib.transforms import Bbox
+
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    axes = figure.axes
+    texts = [_drawn_texts(ax, renderer) for ax in axes]
+    frames = [ax.get_window_extent(renderer) for ax in axes]
+    names = [ax.get_title().replace("\n", " ")[:24] or ax.get_label() for ax in axes]
+
+    def meet(a, b) -> bool:
+        inside = Bbox.intersection(a, b)
+        return inside is not None and inside.width > 0.5 and inside.height > 0.5
+
+    found = []
+    for i in range(len(axes)):
+        for k, (text, box) in enumerate(texts[i]):
+            if any(meet(box, other) for _, other in texts[i][k + 1:]):
+                found.append(f"{names[i]}: {text!r} over its own texts")
+            for j in range(len(axes)):
+                if j != i and (meet(box, frames[j]) or any(meet(box, other) for _, other in texts[j])):
+                    found.append(f"{names[i]}: {text!r} over {names[j]}")
+            if box.x0 < -0.5 or box.y0 < -0.5 or box.x1 > figure.bbox.width + 0.5 or box.y1 > figure.bbox.height + 0.5:
+                found.append(f"{names[i]}: {text!r} past the figure's edge")
+    return found
+
+
+def test_docked_plots_keep_their_labels_apart(window, qtbot, tmp_path, monkeypatch):
+    """The figure the plots' worker draws, at each size the docked panel asks for (the default
+    layout, a 1366 × 740 laptop window, the dock at its narrowest), with and without a fit's
+    convergence: no text over another plot or its texts, none cut at the figure's edge."""
+    from PySide6.QtCore import Qt
+
+    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.gui.panels import PLOT_ROW_HEIGHT, plot_figure, plot_grid
+    from brdflab.io.xmlio import Fitting
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+
+    panel, dock = window.plots, window._docks["Plots"]
+    asked = []
+    request = panel._job.request
+    monkeypatch.setattr(panel._job, "request", lambda arg: (asked.append(arg), request(arg)))
+    test_gui.open_and_wait(qtbot, window, window.open_path, _measured(tmp_path, "truth", 0.2))
+    fit = AnalyticMaterial("f", "Linear", 3, [Lobe.create("Lambertian", [0.25] * 3)])
+    window.undo_stack.push(ReplaceFittings(window, ((), None), ((Fitting(fit, 0.1),), 0), "fit"))
+    history = [(k, 10 ** (-k / 10)) for k in range(31)]  # a fit's progress reports
+
+    def settle(name: str):
+        qtbot.waitUntil(lambda: bool(asked) and asked[-1][1] is fit, timeout=30000)
+        qtbot.waitUntil(lambda: not panel._job.busy and panel.status.text() == "", timeout=30000)
+        qtbot.wait(200)  # a resize's last request
+        qtbot.waitUntil(lambda: not panel._job.busy and panel.status.text() == "", timeout=30000)
+        shot(panel.image, f"h_plots_{name}")
+        shot(window, f"h_window_{name}")
+        return asked[-1]
+
+    sizes = {"default": settle("default")}
+    window.resize(1366, 740)  # a 1366 × 768 laptop's free area
+    qtbot.waitUntil(lambda: window.height() == 740, timeout=5000)
+    sizes["laptop"] = settle("laptop")
+    window.resizeDocks([dock], [1], Qt.Horizontal)  # the dock made as narrow as it goes
+    qtbot.waitUntil(lambda: dock.width() < 400, timeout=5000)  # 358: the Charts tab beside it holds it there
+    sizes["narrowest"] = settle("narrowest")
+    widths = {name: r[-1][0] for name, r in sizes.items()}
+    assert widths["narrowest"] < 400 < widths["laptop"] < widths["default"], widths
+    for name, r in sizes.items():
+        original, fitted, theta, _, (width, height) = r
+        assert original is not None and fitted is fit
+        columns, rows = plot_grid(True, width)
+        assert height >= PLOT_ROW_HEIGHT * rows  # rows at their readable height: the panel scrolls
+        image = panel.image.pixmap()
+        if name == "narrowest":  # the shown image is this request's figure
+            assert (image.width(), image.height()) == (width, height)
+        for points in ([], history):
+            clashes = layout_clashes(plot_figure((original, fitted, theta, points, (width, height))))
+            assert clashes == [], f"{name} ({width} × {height}, {columns} columns, {len(points)} reports): {clashes}"

@@ -754,13 +754,25 @@ class FittingPanel(QWidget):
         self.progress.setFormat("%p%")
 
 
+PLOT_ROW_HEIGHT = 210  # figure pixels (at 100 dpi) a row of plots needs to stay readable
+PLOT_COLUMN_WIDTH = 200  # and a column: narrower, neighbours' labels overlap (and below ~70, the layout gives up)
+
+
+def plot_grid(compare: bool, width: int) -> tuple[int, int]:
+    """(columns, rows) of the plots in a figure `width` pixels wide: three columns where
+    they fit, else two or one, the plots reflowed into more rows (the panel scrolls)."""
+    plots = 6 if compare else 3
+    columns = max(1, min(3, width // PLOT_COLUMN_WIDTH))
+    return columns, -(-plots // columns)
+
+
 class PlotsPanel(QWidget):
     """BRDF Explorer's plots: the plane of incidence (polar), a θh × θd slice, albedo(θ).
 
     The figure is computed and drawn (matplotlib, Agg) in a worker process and shown as an
     image, so neither the evaluation nor matplotlib's layout ever blocks the window."""
 
-    MIN_ROW_HEIGHT = 210  # pixels a row of plots needs to stay readable
+    MIN_ROW_HEIGHT = PLOT_ROW_HEIGHT  # pixels a row of plots needs to stay readable
 
     def __init__(self) -> None:
         super().__init__()
@@ -789,10 +801,14 @@ class PlotsPanel(QWidget):
         if self._last is None:
             return
         ratio = self.devicePixelRatioF()
-        viewport = self.scroll.viewport()
-        rows = 2 if self._last[0] is not None and self._last[1] is not None else 1
-        width = max(200, viewport.width() - (self.scroll.verticalScrollBar().sizeHint().width() if rows == 2 else 0))
-        height = max(120, viewport.height(), self.MIN_ROW_HEIGHT * rows)
+        room = self.scroll.maximumViewportSize()  # the viewport without scroll bars
+        compare = self._last[0] is not None and self._last[1] is not None
+        width = max(200, room.width())
+        _, rows = plot_grid(compare, int(width * ratio))
+        if self.MIN_ROW_HEIGHT * rows > room.height():  # taller than the dock: the scroll bar takes its width
+            width = max(200, room.width() - self.scroll.verticalScrollBar().sizeHint().width())
+            _, rows = plot_grid(compare, int(width * ratio))
+        height = max(120, room.height(), self.MIN_ROW_HEIGHT * rows)
         size = (int(width * ratio), int(height * ratio))
         self.status.setText("updating…")
         self._job.request((*self._last, size))
@@ -842,7 +858,15 @@ def _slice_axes(ax, title: str) -> None:
 
 
 def draw_plots(request) -> np.ndarray:
-    """The plots as an RGBA image of the requested pixel size (runs in a worker).
+    """The plots as an RGBA image of the requested pixel size (runs in a worker)."""
+    figure = plot_figure(request)
+    figure.canvas.draw()
+    return np.asarray(figure.canvas.buffer_rgba()).copy()
+
+
+def plot_figure(request):
+    """The plots' matplotlib figure (Agg canvas) at the requested pixel size, laid out in
+    plot_grid's columns and rows: what draw_plots draws.
 
     Always: the plane of incidence (polar), directional albedo and the θh × θd slice. With a
     fit: the fit's slice and the error slice (log10 fit / original) beside the original's,
@@ -857,11 +881,18 @@ def draw_plots(request) -> np.ndarray:
     compare = original is not None and fitted is not None
     dpi = 100
     figure = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, layout="constrained")
-    canvas = FigureCanvasAgg(figure)
-    rows = 2 if compare else 1
-    ax_polar = figure.add_subplot(rows, 3, 1, projection="polar")
-    ax_albedo = figure.add_subplot(rows, 3, 2)
-    ax_third = figure.add_subplot(rows, 3, 3)
+    FigureCanvasAgg(figure)
+    columns, rows = plot_grid(compare, width)
+    grid = figure.add_gridspec(rows, columns)
+    split = "\n" if width / columns < 240 else " "  # the longest titles on two lines in narrow columns
+
+    def cell(k: int, **kw):
+        """The k-th plot's axes, row by row."""
+        return figure.add_subplot(grid[k // columns, k % columns], **kw)
+
+    ax_polar = cell(0, projection="polar")
+    ax_albedo = cell(1)
+    ax_third = cell(2)
     pairs = [(s, label, style) for s, label, style in ((original, "original", "-"), (fitted, "fit", "--"))
              if s is not None]
 
@@ -876,9 +907,7 @@ def draw_plots(request) -> np.ndarray:
     ax_polar.yaxis.set_major_locator(MaxNLocator(3))  # few radial labels: they never overlap
     ax_polar.set_rlabel_position(-80)
     ax_polar.tick_params(labelsize=6)
-    ax_polar.set_title(f"plane of incidence, θi = {theta_i_deg:.0f}° (∛f)", fontsize=8)
-    if ax_polar.lines:
-        ax_polar.legend(fontsize=6, loc="upper left", bbox_to_anchor=(-0.35, 1.0), frameon=False)
+    ax_polar.set_title(f"plane of incidence,{split}θi = {theta_i_deg:.0f}° (∛f)", fontsize=8)
 
     theta = np.radians(np.linspace(0, 85, 18))
     for src, label, style in pairs:
@@ -887,20 +916,26 @@ def draw_plots(request) -> np.ndarray:
     ax_albedo.axhline(1.0, color="grey", lw=0.8, ls=":")
     ax_albedo.set_xlabel("θo (°)", fontsize=7)
     ax_albedo.set_ylabel("albedo (luminance)", fontsize=7)
-    ax_albedo.set_title("directional albedo (1: dotted)", fontsize=8)
+    ax_albedo.set_title(f"directional albedo{split}(1: dotted)", fontsize=8)
     ax_albedo.tick_params(labelsize=6)
+    if ax_albedo.get_legend_handles_labels()[0]:  # which curve is which, here and in the polar plot
+        ax_albedo.legend(fontsize=6, loc="best", framealpha=0.8)
 
     if compare:
-        _convergence(ax_third, history)
+        _convergence(ax_third, history, split)
         a, b = _slice(original), _slice(fitted)
         logs = [np.log10(np.maximum(x, 1e-4)) for x in (a, b)]
         lo, hi = min(l.min() for l in logs), max(l.max() for l in logs)
+        together = 3 // columns == 4 // columns  # the two slices in one row share a colour bar
         for k, (img, title) in enumerate(zip(logs, ("log10 f, original", "log10 f, fit"))):
-            ax = figure.add_subplot(2, 3, 4 + k)
+            ax = cell(3 + k)
             shown = ax.imshow(img.T, origin="lower", aspect="auto", extent=(0, 90, 0, 90), vmin=lo, vmax=hi)
             _slice_axes(ax, title + ", φd = 90°")
-        _colorbar(figure, shown, figure.axes[-2:], "log10 f (1/sr)")
-        ax = figure.add_subplot(2, 3, 6)
+            if not together:
+                _colorbar(figure, shown, ax, "log10 f (1/sr)")
+        if together:
+            _colorbar(figure, shown, figure.axes[-2:], "log10 f (1/sr)")
+        ax = cell(5)
         ratio = np.log10(np.maximum(b, 1e-4) / np.maximum(a, 1e-4))
         shown = ax.imshow(ratio.T, origin="lower", aspect="auto", extent=(0, 90, 0, 90), cmap="RdBu_r", vmin=-1, vmax=1)
         _slice_axes(ax, "error: log10 (fit / original)")
@@ -912,8 +947,7 @@ def draw_plots(request) -> np.ndarray:
                                     extent=(0, 90, 0, 90))
             _colorbar(figure, shown, ax_third, "log10 f (1/sr)")
             _slice_axes(ax_third, "log10 f, φd = 90°")
-    canvas.draw()
-    return np.asarray(canvas.buffer_rgba()).copy()
+    return figure
 
 
 def albedo_curve(source, theta: np.ndarray) -> np.ndarray:
@@ -934,18 +968,21 @@ def _colorbar(figure, shown, ax, label: str) -> None:
     bar.ax.tick_params(labelsize=6)
 
 
-def _convergence(ax, history: list) -> None:
-    """Error per iteration of the running (or last) fit, log scale."""
+def _convergence(ax, history: list, split: str = " ") -> None:
+    """Error per iteration of the running (or last) fit, log scale; `split`: a narrow
+    column's line break in the axis label."""
     if history:
         it, err = np.array([h[0] for h in history]), np.array([h[1] for h in history])
         ax.semilogy(np.arange(len(err)), np.maximum(err, 1e-300), ".-", ms=3)
-        ax.set_xlabel(f"progress reports (starting points, then LM; iteration {it[-1]})", fontsize=7)
+        ax.set_xlabel(f"progress reports{split}(starting points,\nthen LM; iteration {it[-1]})", fontsize=7)
     else:
-        ax.text(0.5, 0.5, "fit to see its convergence", ha="center", va="center", fontsize=7, color="grey",
+        ax.text(0.5, 0.5, "fit to see\nits convergence", ha="center", va="center", fontsize=7, color="grey",
                 transform=ax.transAxes)
+        ax.set_xticks([])  # nothing plotted: no scale (its labels were under the note)
+        ax.set_yticks([])
     ax.set_ylabel("error", fontsize=7)
     ax.set_title("fit convergence", fontsize=8)
-    ax.tick_params(labelsize=6)
+    ax.tick_params(which="both", labelsize=6)  # a log axis's minor labels (2×10⁻¹) too
 
 
 class XmlHighlighter(QSyntaxHighlighter):
