@@ -720,11 +720,11 @@ class ObjectView(_GLView):
                           environment=self.renderer if lit_by_map else None, other=other,
                           compare=self.compare, split=self.split)
 
-    def _read_frame(self) -> None:
-        super()._read_frame()
+    def decorate(self, frame: QImage) -> None:
+        """A difference image gets its legend."""
         self._legend = None
         if self._drawing_difference:
-            self._paint_legend(self._frame)
+            self._paint_legend(frame)
 
     def resizeGL(self, w: int, h: int) -> None:
         self._release(self._progressive, self._progressive_b)
