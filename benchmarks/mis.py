@@ -47,6 +47,12 @@ SEEDS = 8
 def _independent(renderer: ObjectRenderer, settings: RenderSettings, seed: int) -> np.ndarray:
     """One render whose sample set is rotated by `seed` (older trees: through the steps)."""
     try:
+        from brdflab.render.object_view import independent_image
+    except ImportError:  # a revision before independent_image
+        pass
+    else:
+        return independent_image(renderer, settings, seed)
+    try:
         image = Progressive(renderer, settings, seed=seed)
     except TypeError:  # a revision before Progressive(seed=): its later steps are rotated
         image = Progressive(renderer, settings)

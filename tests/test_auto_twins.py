@@ -26,7 +26,7 @@ from brdflab.lighting.reference_view import (
 )
 from brdflab.lighting.sampling_sets import pixel_shifts
 from brdflab.material.analytic import AnalyticMaterial, Lobe
-from brdflab.render.object_view import ObjectRenderer, Progressive, RenderSettings
+from brdflab.render.object_view import ObjectRenderer, RenderSettings, independent_image
 
 SIZE = 24
 
@@ -92,17 +92,6 @@ def test_sub_texel_lobe_converges_to_the_quadrature(renderer):
     assert errors[1024] < errors[64] / 2, errors
 
 
-def _seeded(renderer, settings: RenderSettings, seed: int) -> np.ndarray:
-    """One render whose sample set is rotated by `seed`: independent of the other seeds'."""
-    image = Progressive(renderer, settings, seed=seed)
-    try:
-        image.step(settings.samples)
-        raw = np.frombuffer(image.texture.read(), np.float32).reshape(settings.height, settings.width, 4)[::-1]
-    finally:
-        image.release()
-    return raw[:, :, :3] / settings.samples
-
-
 def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     """The pilot's converged value is within 1 % of the quadrature, and its predicted FIS and
     MIS errors are within 1.5× of the renderer's measured ones under a small sun. MIS shifts
@@ -125,7 +114,7 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
             if mode == "fis":
                 measured = relative_rmse(renderer.render(settings), reference, inside)
             else:
-                measured = float(np.sqrt(np.mean([relative_rmse(_seeded(renderer, settings, seed), reference, inside) ** 2
+                measured = float(np.sqrt(np.mean([relative_rmse(independent_image(renderer, settings, seed), reference, inside) ** 2
                                                   for seed in range(6)])))
             assert measured / 1.5 <= p <= 1.5 * measured, (mode, n, p, measured)
 

@@ -12,7 +12,7 @@ from brdflab.lighting.mip_pyramid import level_sizes, solid_angle_mips
 from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models.registry import all_models
-from brdflab.render.object_view import ObjectRenderer, Progressive, RenderSettings
+from brdflab.render.object_view import ObjectRenderer, RenderSettings, independent_image
 from conftest import DATA, needs_shared
 
 SIZE = 48
@@ -38,16 +38,16 @@ def sphere_mean(image: np.ndarray) -> float:
 
 def independent_mean(renderer, mode: str, samples: int, seeds: int) -> np.ndarray:
     """The average of `seeds` independent renders (each its own rotated sample set)."""
-    total = np.zeros((SIZE, SIZE, 3))
-    for seed in range(seeds):
-        image = Progressive(renderer, RenderSettings(mode=mode, width=SIZE, height=SIZE, samples=samples), seed=seed)
-        try:
-            image.step(samples)
-            raw = np.frombuffer(image.texture.read(), np.float32).reshape(SIZE, SIZE, 4)[::-1]
-        finally:
-            image.release()
-        total += raw[:, :, :3] / samples
-    return total / seeds
+    settings = RenderSettings(mode=mode, width=SIZE, height=SIZE, samples=samples)
+    return np.mean([independent_image(renderer, settings, seed) for seed in range(seeds)], axis=0)
+
+
+def scene(renderer, map_name: str, material: AnalyticMaterial) -> tuple[np.ndarray, np.ndarray]:
+    """The renderer set to `material` under the reduced map; the quadrature and the sphere's mask."""
+    env = reduced(map_name)
+    renderer.set_environment(env)
+    renderer.set_material(material)
+    return environment_image(material, env, SIZE, SIZE), sphere_view(SIZE, SIZE).inside
 
 
 # --- the map's density, in NumPy --------------------------------------------------------------
@@ -116,11 +116,7 @@ def test_mis_is_unbiased_at_high_count(renderer):
 @pytest.mark.parametrize("map_name", ["quarry_01_1k.hdr", "royal_esplanade_1k.hdr"])
 @pytest.mark.parametrize("material", [LAMBERTIAN, GLOSSY], ids=["lambertian", "glossy"])
 def test_mis_beats_fis_under_small_bright_sources(renderer, map_name, material):
-    env = reduced(map_name)
-    renderer.set_environment(env)
-    renderer.set_material(material)
-    ref = environment_image(material, env, SIZE, SIZE)
-    inside = sphere_view(SIZE, SIZE).inside
+    ref, inside = scene(renderer, map_name, material)
     for n in (64, 256):
         err = {mode: relative_rmse(renderer.render(RenderSettings(mode=mode, width=SIZE, height=SIZE, samples=n)), ref, inside)
                for mode in ("fis", "mis")}
@@ -131,11 +127,7 @@ def test_mis_beats_fis_under_small_bright_sources(renderer, map_name, material):
 def test_mis_on_a_smooth_map_stays_close_to_fis(renderer):
     """Without bright spots the map's own sampling buys nothing and MIS reads the map
     unfiltered: it is noisier than FIS, but by a bounded factor (docs/mis.md)."""
-    env = reduced("venice_sunset_1k.hdr")
-    renderer.set_environment(env)
-    renderer.set_material(GLOSSY)
-    ref = environment_image(GLOSSY, env, SIZE, SIZE)
-    inside = sphere_view(SIZE, SIZE).inside
+    ref, inside = scene(renderer, "venice_sunset_1k.hdr", GLOSSY)
     err = {mode: relative_rmse(renderer.render(RenderSettings(mode=mode, width=SIZE, height=SIZE, samples=256)), ref, inside)
            for mode in ("fis", "mis")}
     assert err["mis"] < 0.02
@@ -149,11 +141,7 @@ def test_mis_errors_of_neighbouring_pixels_are_independent(renderer, map_name):
     was a pattern across the sphere (neighbours' relative errors correlated 0.6–0.9 at 16 and
     64 samples on these maps); each pixel now shifts the set by its own amount, and stays
     unbiased (the expected mean test above)."""
-    env = reduced(map_name)
-    renderer.set_environment(env)
-    renderer.set_material(GLOSSY)
-    ref = environment_image(GLOSSY, env, SIZE, SIZE)
-    inside = sphere_view(SIZE, SIZE).inside
+    ref, inside = scene(renderer, map_name, GLOSSY)
     for n in (16, 64):
         image = renderer.render(RenderSettings(mode="mis", width=SIZE, height=SIZE, samples=n))
         error = (image - ref).mean(-1) / np.maximum(ref.mean(-1), 1e-12)

@@ -690,6 +690,19 @@ class Progressive:
             obj.release()
 
 
+def independent_image(renderer: ObjectRenderer, settings: RenderSettings, seed: int) -> np.ndarray:
+    """One finished image (height, width, 3), rows top first, whose sample set is rotated by
+    `seed`: images of different seeds are independent estimates (a method's bias is their
+    mean's error, its noise their spread)."""
+    image = Progressive(renderer, settings, seed=seed)
+    try:
+        image.step(settings.samples)
+        raw = np.frombuffer(image.texture.read(), np.float32).reshape(settings.height, settings.width, 4)[::-1]
+    finally:
+        image.release()
+    return raw[:, :, :3] / settings.samples
+
+
 class Display:
     """Draws an accumulated image into the bound framebuffer, tone-mapped."""
 
