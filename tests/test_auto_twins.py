@@ -5,6 +5,7 @@ highlight and weigh the view."""
 
 import numpy as np
 import pytest
+from conftest import DATA, needs_shared
 
 from brdflab.lighting.auto_twins import (
     PilotPixels,
@@ -74,6 +75,34 @@ def test_twin_reproduces_the_renderer(renderer, mode, count):
         twin = mis_pixels(mat, mat, env, environment_distribution(env), frames(SIZE), count,
                           pixel_shifts(cols, SIZE - 1 - rows))
     assert np.abs(twin - gpu).max() <= 1e-4 * np.abs(gpu).max()
+
+
+@needs_shared("merl_slices", "gold-metallic-paint3.slice")
+@pytest.mark.parametrize("mode", ["fis", "mis"])
+def test_twin_samples_a_measured_table_as_the_renderer_does(renderer, mode):
+    """The renderer draws a measured table's BRDF samples from the table's own sampler, not
+    from its proxy lobes (issue 30 §1): the twins follow. Twins that sampled the proxy were
+    34 % (FIS) and 6.6 % (MIS) away from the renderer's pixels at 16 samples under this sun;
+    now the pixels differ by the table's interpolation (GPU trilinear texture against the
+    NumPy evaluation): ≤ 0.35 % RMS measured."""
+    from brdflab.sources.measured import read_slice
+    from brdflab.sources.proxy import proxy_lobes
+
+    source = read_slice(DATA / "merl_slices" / "gold-metallic-paint3.slice")
+    env = sun_map()
+    renderer.set_source(source)
+    renderer.set_environment(env)
+    inside = sphere_view(SIZE, SIZE).inside
+    rows, cols = np.nonzero(inside)
+    for count in (16, 256) if mode == "mis" else (16,):
+        gpu = renderer.render(RenderSettings(mode, SIZE, SIZE, samples=count))[inside]
+        if mode == "fis":
+            levels = [level.astype(float) for level in solid_angle_mips(env.data)]
+            twin = fis_pixels(source, proxy_lobes(source), levels, frames(SIZE), count)
+        else:
+            twin = mis_pixels(source, proxy_lobes(source), env, environment_distribution(env), frames(SIZE), count,
+                              pixel_shifts(cols, SIZE - 1 - rows))
+        assert np.sqrt(((twin - gpu) ** 2).mean() / (gpu**2).mean()) < 0.01, (mode, count)
 
 
 def test_sub_texel_lobe_converges_to_the_quadrature(renderer):

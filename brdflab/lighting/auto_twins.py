@@ -91,6 +91,47 @@ def fis_pixels_of(env: EnvironmentMap) -> PilotPixels:
     return PilotPixels(frames, weight / weight.sum())
 
 
+class _SamplerModel:
+    """A measured table's own sampler (`sources.proxy.measured_sampler`) standing as the one
+    samplable lobe the renderer draws a measured source's BRDF samples from."""
+
+    samplable = True
+
+    def __init__(self, sampler) -> None:
+        self.sampler = sampler
+
+    def sample(self, wo: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
+        return self.sampler.sample(wo, u)
+
+    def pdf(self, wi: np.ndarray, wo: np.ndarray, params: dict) -> np.ndarray:
+        return self.sampler.pdf(wi, wo)
+
+
+@dataclass(frozen=True)
+class _SampledLobe:
+    model: _SamplerModel
+    params: dict
+
+
+@dataclass(frozen=True)
+class _TableSampling:
+    lobes: list
+
+
+def renderer_sampling(source, proxy) -> tuple[object, np.ndarray]:
+    """What the renderer draws BRDF samples of `source` from, with each lobe's share: an
+    analytic material's own lobes (`lobe_shares`), a measured table's own sampler alone (the
+    renderer's `set_source`; the proxy lobes it once used fell 140× short of a paint's grazing
+    highlight, and a twin sampling the proxy predicted another estimator)."""
+    from brdflab.lighting.sampling_sets import lobe_shares
+    from brdflab.material.analytic import AnalyticMaterial
+    from brdflab.sources.proxy import measured_sampler
+
+    if isinstance(source, AnalyticMaterial):
+        return proxy, lobe_shares(proxy)
+    return _TableSampling([_SampledLobe(_SamplerModel(measured_sampler(source)), {})]), np.ones(1)
+
+
 def mixture_pdf(material, wi: np.ndarray, wo: np.ndarray, shares: np.ndarray) -> np.ndarray:
     """The renderer's BRDF sampling density at wi: the lobes mixed by their sample shares;
     lobes without a sampler draw cosine-weighted."""
@@ -135,7 +176,7 @@ def _views(frames) -> np.ndarray:
     return np.stack([t[:, 2], b[:, 2], n[:, 2]], axis=-1)
 
 
-def _lobe_directions(proxy, frames, data: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
+def _lobe_directions(sampling, frames, data: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
     """Local directions (pixels, n, 3) of the sample set `data` (n, 4: u1, u2, lobe, 0) as the
     renderer draws them at each pilot pixel: the lobe's own sampler, else cosine-weighted.
     `u` (pixels, n, 2): each pixel's own points (MIS's shifted set) instead of data's."""
@@ -143,7 +184,7 @@ def _lobe_directions(proxy, frames, data: np.ndarray, u: np.ndarray | None = Non
     lobe = data[:, 2].astype(int)
     u = np.broadcast_to(data[None, :, :2].astype(float), (len(wo), len(data), 2)) if u is None else u
     wi = np.zeros((len(wo), len(data), 3))
-    for k, item in enumerate(proxy.lobes):
+    for k, item in enumerate(sampling.lobes):
         sel = lobe == k
         uk = u[:, sel]
         wk = np.broadcast_to(wo[:, None], uk.shape[:2] + (3,))
@@ -176,11 +217,12 @@ def fis_pixels(source, proxy, levels: list[np.ndarray], frames, count: int) -> n
     """The FIS mode's RGB value (pixels, 3) at each pilot pixel with `count` samples: the
     renderer's own sample set, sampler, density and filtered lookups (`levels`: the map's
     mips)."""
-    from brdflab.lighting.sampling_sets import lobe_shares, sample_set
+    from brdflab.lighting.sampling_sets import sample_set
 
-    data, fractions = sample_set(lobe_shares(proxy), count)
-    wi = _lobe_directions(proxy, frames, data)
-    pdf = mixture_pdf(proxy, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
+    sampling, shares = renderer_sampling(source, proxy)
+    data, fractions = sample_set(shares, count)
+    wi = _lobe_directions(sampling, frames, data)
+    pdf = mixture_pdf(sampling, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
     ok = (wi[..., 2] > 0) & (pdf > 0)
     pdf = np.where(ok, pdf, 1.0)
     radiance = filtered_radiance(levels, _to_world(frames, wi), 1.0 / (len(data) * pdf))
@@ -195,20 +237,21 @@ def mis_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int,
     heuristic, the map texel by texel. `shifts` (pixels, 2): the window pixels' own
     (`pixel_shifts`); by default the shifts of pixels (0, 0), (1, 0), … (pilot pixels are
     not window pixels; what matters is that each has its own, as each pixel does)."""
-    from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set, pixel_shifts
+    from brdflab.lighting.sampling_sets import mis_sample_set, pixel_shifts
 
-    data, fractions, env_fraction = mis_sample_set(lobe_shares(proxy), count)
+    sampling, shares = renderer_sampling(source, proxy)
+    data, fractions, env_fraction = mis_sample_set(shares, count)
     pixels = len(frames[0])
     if shifts is None:
         shifts = pixel_shifts(np.arange(pixels), np.zeros(pixels))
     u = np.mod(data[None, :, :2] + shifts[:, None, :], np.float32(1.0)).astype(float)  # float32, as fract()
     from_map = data[:, 2] < 0
-    wi = _lobe_directions(proxy, frames, data, u)
+    wi = _lobe_directions(sampling, frames, data, u)
     drawn = dist.sample(u[:, from_map].reshape(-1, 2)).reshape(pixels, -1, 3)  # world, each pixel its own
     wi[:, from_map] = _to_local(frames, drawn)
     world = _to_world(frames, wi)
     p_map = env_fraction * dist.pdf(world)
-    p_lobes = (1.0 - env_fraction) * mixture_pdf(proxy, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
+    p_lobes = (1.0 - env_fraction) * mixture_pdf(sampling, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
     own = np.where(from_map, p_map, p_lobes)
     other = np.where(from_map, p_lobes, p_map)
     ok = (wi[..., 2] > 0) & (own > 0)
@@ -225,23 +268,19 @@ def _mixture_estimate(source, proxy, env: EnvironmentMap, dist, frames, count: i
     the mixture of both densities (robust to a small sun under a broad lobe, and to a sharp
     lobe under a broad map); each pixel's set shifted by its own amount (`salt` picks a
     family of shifts unrelated to MIS's, whose errors it must not share)."""
-    from brdflab.lighting.sampling_sets import (
-        hammersley,
-        lobe_shares,
-        pixel_shifts,
-        sample_set,
-    )
+    from brdflab.lighting.sampling_sets import hammersley, pixel_shifts, sample_set
 
     half = count // 2
+    sampling, shares = renderer_sampling(source, proxy)
     pixels = len(frames[0])
     shifts = pixel_shifts(np.arange(pixels), np.full(pixels, (1 << 20) + salt)).astype(float)
-    data, fractions = sample_set(lobe_shares(proxy), half)
+    data, fractions = sample_set(shares, half)
     u_lobes = np.mod(data[None, :, :2] + shifts[:, None], 1.0)
     u_map = np.mod(hammersley(half)[None] + shifts[:, None], 1.0)
     from_map = _to_local(frames, dist.sample(u_map.reshape(-1, 2)).reshape(pixels, half, 3))
-    wi = np.concatenate([_lobe_directions(proxy, frames, data, u_lobes), from_map], axis=1)
+    wi = np.concatenate([_lobe_directions(sampling, frames, data, u_lobes), from_map], axis=1)
     world = _to_world(frames, wi)
-    pdf_lobes = mixture_pdf(proxy, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
+    pdf_lobes = mixture_pdf(sampling, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
     pdf = 0.5 * pdf_lobes + 0.5 * dist.pdf(world)
     radiance = env.data.astype(float)[texel_of(world, env.height, env.width)]
     ok = (wi[..., 2] > 0) & (pdf > 0)
