@@ -140,6 +140,14 @@ def test_an_export_that_cannot_be_written_is_one_line(tmp_path):
     assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
 
 
+def test_a_gltf_export_named_neither_gltf_nor_glb_is_refused_before_any_fit(tmp_path):
+    """The container follows the name (.glb binary, .gltf JSON): `--out x.txt` wrote JSON to
+    x.txt, a file no viewer opens by its name. Refused in one line, nothing written."""
+    r = brdflab("export", str(CAR_PAINT), "--format", "gltf", "--out", str(tmp_path / "car.txt"))
+    assert r.returncode == 2 and "named .gltf" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "car.txt").exists()
+
+
 def test_a_mitsuba_scene_takes_a_light_probe_pair_as_its_map(tmp_path):
     """--env with a dual-paraboloid half finds its other half; the scene gets the pair as lat-long."""
     from brdflab.io.resources import shared_data_dir

@@ -45,6 +45,9 @@ def export_source(source, fmt: str, path: str | os.PathLike, origin: Path | None
 def _export_principled(source, fmt: str, path: Path, env, cancel) -> list[str]:
     from brdflab.export.principled import as_principled
 
+    if fmt == "gltf" and path.suffix.lower() not in (".gltf", ".glb"):
+        # the container follows the name (.glb binary, .gltf JSON): another name says neither
+        raise BRDFLabError("a glTF export is named .gltf (JSON, buffer embedded) or .glb (binary)", path)
     export = as_principled(source, fmt, cancel)
     if cancel is not None and cancel.is_set():
         raise BRDFLabError("export cancelled: nothing was written", path)
