@@ -31,9 +31,10 @@ for name, _, env in study_maps(False, []):
     ref_q = environment_image(material, small, S, S)
     r.set_environment(small)
     print(f"{name}: quadrature vs SH-16 reference {100 * relative_rmse(ref_q, ref_sh, view.inside):.2f} %")
-    for mode, n in (("fis", 1024), ("fis", 64), ("sh", 6)):
+    for mode, n in (("fis", 1024), ("fis", 64), ("mis", 256), ("sh", 6), ("prefiltered", None)):
         if mode == "sh": r.set_sh_order(n)
-        img = r.render(RenderSettings(mode, S, S, samples=n if mode == "fis" else 1))
-        mine = [x["error"] for x in study if x["material"] == "Lambertian" and x["map"] == name and x["mode"] == mode and x["value"] == n]
+        img = r.render(RenderSettings(mode, S, S, samples=n if mode in ("fis", "mis") else 1))
+        mine = [x["error"] for x in study if x["material"] == "Lambertian" and x["map"] == name and x["mode"] == mode
+                and (n is None or x["value"] == n)]
         print(f"  {mode} {n}: vs SH-16 reference {100 * relative_rmse(img, ref_sh, view.inside):.2f} %, "
               f"vs quadrature {100 * relative_rmse(img, ref_q, view.inside):.2f} %, study {100 * mine[0] if mine else float('nan'):.2f} %")
