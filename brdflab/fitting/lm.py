@@ -871,7 +871,7 @@ def _occurrences(names: list[str]) -> list[tuple[int, int]]:
 def restart_guesses(material: AnalyticMaterial) -> list[AnalyticMaterial]:
     """Model-aware starting points: the i-th guess gives every lobe its model's i-th start;
     repeated lobes of one model take starts spread apart (a sharp and a broad lobe, …)."""
-    names = [l.model.name for l in material.lobes if l.channel in (None, 0)]
+    names = material.lobe_models()
     place = dict(zip(range(len(names)), _occurrences(names)))
     count = max(len(l.model.starts) for l in material.lobes)
     out = []

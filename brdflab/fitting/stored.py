@@ -28,8 +28,8 @@ def initial_material(lobes: list[str] | None, combination: str, n_channels: int,
             start = doc.material
         else:
             raise BRDFLabError("--init needs an analytic material or a stored fitting", init)
-        check_fit_size(sum(l.channel in (None, 0) for l in start.lobes), init)
-        if lobes and [l.model.name for l in start.lobes if l.channel in (None, 0)] != lobes:
+        check_fit_size(len(start.lobe_models()), init)
+        if lobes and start.lobe_models() != lobes:
             raise BRDFLabError(f"--lobes {','.join(lobes)} differ from the lobes of the initial guess", init)
         if start.n_channels != n_channels:
             raise BRDFLabError(f"the initial guess has {start.n_channels} channels, the source {n_channels}", init)

@@ -701,7 +701,7 @@ class MainWindow(QMainWindow):
         first = f"original: {name}" if name else "original"
         if fitted is None:
             return [first, ""]
-        lobes = "+".join(l.model.name for l in fitted.lobes if l.channel in (None, 0))  # as the list names a fit
+        lobes = "+".join(fitted.lobe_models())  # as the list names a fit
         if fitted is self._candidate:
             return [first, f"fit running: {lobes}"]
         if fitted is ws.guess and ws.analytic is None:
@@ -1147,7 +1147,7 @@ class MainWindow(QMainWindow):
         try:
             guess = self.workspace.guess
             if start is None and self.workspace.analytic is None and guess is not None and \
-                    [l.model.name for l in guess.lobes if l.channel in (None, 0)] == lobes and guess.combination == combination:
+                    guess.lobe_models() == lobes and guess.combination == combination:
                 start = guess.copy()  # the guess the user edited
             if start is None:
                 start = material_from_lobes(lobes, combination, source.n_channels)

@@ -729,7 +729,7 @@ class FittingPanel(QWidget):
             self.fits.clear()
             for k, f in enumerate(fittings):
                 # one name per lobe (Auto picks repeat a model), not per channel of a Fixed fit
-                lobes = "+".join(l.model.name for l in f.material.lobes if l.channel in (None, 0))
+                lobes = "+".join(f.material.lobe_models())
                 err = "—" if f.error is None else f"{f.error:.5g}"
                 metric = f.statistics.get("metric", "")
                 summary = energy[k] if energy is not None and k < len(energy) else None
@@ -772,8 +772,6 @@ class PlotsPanel(QWidget):
     The figure is computed and drawn (matplotlib, Agg) in a worker process and shown as an
     image, so neither the evaluation nor matplotlib's layout ever blocks the window."""
 
-    MIN_ROW_HEIGHT = PLOT_ROW_HEIGHT  # pixels a row of plots needs to stay readable
-
     def __init__(self) -> None:
         super().__init__()
         self.image = QLabel(alignment=Qt.AlignCenter)
@@ -805,10 +803,10 @@ class PlotsPanel(QWidget):
         compare = self._last[0] is not None and self._last[1] is not None
         width = max(200, room.width())
         _, rows = plot_grid(compare, int(width * ratio))
-        if self.MIN_ROW_HEIGHT * rows > room.height():  # taller than the dock: the scroll bar takes its width
+        if PLOT_ROW_HEIGHT * rows > room.height():  # taller than the dock: the scroll bar takes its width
             width = max(200, room.width() - self.scroll.verticalScrollBar().sizeHint().width())
             _, rows = plot_grid(compare, int(width * ratio))
-        height = max(120, room.height(), self.MIN_ROW_HEIGHT * rows)
+        height = max(120, room.height(), PLOT_ROW_HEIGHT * rows)
         size = (int(width * ratio), int(height * ratio))
         self.status.setText("updating…")
         self._job.request((*self._last, size))

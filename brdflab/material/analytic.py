@@ -151,6 +151,11 @@ class AnalyticMaterial(SourceLinked):
 
     kind = "Analytic"
 
+    def lobe_models(self) -> list[str]:
+        """The model of each lobe of the design, once: a Fixed material holds every lobe once
+        per channel, and its channel-0 copies stand for them (what fits and lists name)."""
+        return [lobe.model.name for lobe in self.lobes if lobe.channel in (None, 0)]
+
     def validate(self, where: str = "") -> None:
         prefix = f"{where}: " if where else ""
         if self.combination not in ("Linear", "Fixed"):
