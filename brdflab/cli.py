@@ -62,8 +62,16 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    from brdflab.lighting.map_info import describe_map, is_map_file, summary_line
     from brdflab.sources.files import describe_file
 
+    if is_map_file(Path(args.file)):
+        info = describe_map(Path(args.file), args.env_layout)
+        lines = [summary_line(info)] + [
+            f"  brightest texel {k + 1}: luminance {b['luminance']:.4g} at elevation {b['elevation_deg']:.1f}°, "
+            f"{100 * b['share_of_light']:.2f} % of the light" for k, b in enumerate(info["map"]["brightest"])]
+        _emit(args, info, "\n".join(lines))
+        return 0
     info = _json_safe(describe_file(Path(args.file)))
     for w in info.get("warnings", []):
         print(f"{args.file}: warning: {w}", file=sys.stderr)
@@ -409,6 +417,9 @@ def cmd_render(args: argparse.Namespace) -> int:
                      "size": [width, height], "samples": args.samples, "light": light, "sh_order": args.sh_order,
                      "env": args.env, "renderer": ctx.info.get("GL_RENDERER", "")},
     }
+    if renderer.environment is not None:  # the map as read: a probe's layout, and the lat-long size it became
+        payload["settings"]["env_layout"] = renderer.environment.layout
+        payload["settings"]["env_size"] = list(renderer.env_size)
     human = f"wrote {out} ({width}×{height}, {args.mode}, {seconds * 1e3:.1f} ms)"
     if auto is not None:
         payload["auto"] = auto.as_dict()
@@ -542,6 +553,7 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 # --- parser ------------------------------------------------------------------------------
 
+ENV_LAYOUTS = ["auto", "latlong", "angular", "dual-paraboloid"]  # lighting/probes.py LAYOUTS, kept here so --help imports no NumPy
 MAX_RENDER_SAMPLES = 65_536  # FIS samples per pixel: minutes per frame on a software rasteriser beyond this
 
 EXAMPLES = {
@@ -599,8 +611,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_examples)
 
     p = _add(sub, "info", "what a material or data file holds")
-    p.add_argument("file", type=material_path, help="XML material, measured data, a model file (.brdf, model descriptor: one lobe at its defaults) or example:NAME")
+    p.add_argument("file", type=material_path, help="XML material, measured data, a model file (.brdf, model descriptor: one lobe at its defaults), an environment map (.hdr, .exr) or example:NAME")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.add_argument("--env-layout", choices=ENV_LAYOUTS, default="auto",
+                   help="how to read an environment map (auto: a square disk is an angular probe, a NAME-front/-back pair dual-paraboloid)")
     p.set_defaults(func=cmd_info)
 
     p = _add(sub, "eval", "evaluate a material at direction pairs")
@@ -686,7 +700,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="reference: the benchmarks' orthographic unit sphere; orbit: a perspective view of --mesh")
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")
     p.add_argument("--env", help="environment map (.hdr or .exr); default: the shipped CC0 map")
-    p.add_argument("--env-layout", choices=["auto", "latlong", "angular", "dual-paraboloid"], default="auto",
+    p.add_argument("--env-layout", choices=ENV_LAYOUTS, default="auto",
                    help="light-probe layout of --env; auto: a square image with a disk is an angular map, a "
                         "square NAME-front or NAME-back beside its other half a dual-paraboloid pair")
     p.add_argument("--env-back", help="the back half of a dual-paraboloid pair whose front half is --env (default: "
@@ -735,7 +749,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "Principled material as it is and fit anything else to Principled on the way out, saying the error")
     p.add_argument("--env", help="mitsuba: the scene's environment map (default: the shipped map), written "
                                   "beside the scene as lat-long OpenEXR")
-    p.add_argument("--env-layout", choices=["auto", "latlong", "angular", "dual-paraboloid"], default="auto",
+    p.add_argument("--env-layout", choices=ENV_LAYOUTS, default="auto",
                    help="the layout of --env")
     p.add_argument("--env-back", help="the back half of a dual-paraboloid pair whose front half is --env")
     p.add_argument("--fitting", type=int_in(0, 1_000_000), default=None, help="export the K-th stored fit")

@@ -1,0 +1,89 @@
+"""What `brdflab info MAP` says of an environment map: how it was read, its size, its
+dynamic range and where its light comes from.
+
+The numbers are over the lat-long map the renderers use (a probe resampled), each texel
+weighted by its solid angle, so a sun's share of the light is its share of the irradiance
+a white surface facing it would see, not its share of the file's pixels.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.lighting.env_sampling import LUMINANCE
+from brdflab.lighting.envmap import EnvironmentMap, load_environment
+
+MAP_SUFFIXES = (".hdr", ".pic", ".rgbe", ".exr")
+BRIGHTEST = 5  # texels listed
+SMALL_SOURCE_SHARE = 1e-3  # "small sources": the brightest 0.1 % of the sphere
+
+
+def is_map_file(path: Path) -> bool:
+    """An .hdr or .exr image: the lab reads these only as environment maps."""
+    return Path(path).suffix.lower() in MAP_SUFFIXES
+
+
+def describe_map(path: str | os.PathLike, layout: str = "auto") -> dict:
+    """Layout as read, sizes, radiance range and the brightest texels of the map in `path`."""
+    env = load_environment(path, layout)
+    return {"file": str(path), "map": map_summary(env)}
+
+
+def map_summary(env: EnvironmentMap) -> dict:
+    """The description of an already loaded map (see the module's docstring)."""
+    lum = env.data[..., :3].astype(np.float64) @ LUMINANCE
+    directions, solid = env.texel_directions()
+    power = lum * solid  # (H, W): each texel's luminance × solid angle
+    total = float(power.sum())
+    positive = lum[lum > 0]
+    order = np.argsort(lum, axis=None)[::-1]
+    brightest = []
+    for flat in order[:BRIGHTEST]:
+        row, col = divmod(int(flat), env.width)
+        d = directions[row, col]
+        brightest.append({
+            "texel": [col, row],
+            "direction": [round(float(c), 4) for c in d],
+            "elevation_deg": round(float(np.degrees(np.arcsin(np.clip(d[1], -1.0, 1.0)))), 2),
+            "radiance": [float(c) for c in env.data[row, col, :3]],
+            "luminance": float(lum[row, col]),
+            "share_of_light": float(power[row, col] / total) if total > 0 else 0.0,
+        })
+    return {
+        "layout": env.layout,
+        "latlong_size": [env.width, env.height],
+        "mean_radiance": total / (4.0 * np.pi),
+        "max_luminance": float(lum.max()),
+        "min_positive_luminance": float(positive.min()) if positive.size else 0.0,
+        "dynamic_range": float(positive.max() / positive.min()) if positive.size else 0.0,
+        "black_texels": int(lum.size - positive.size),
+        "small_source_share": small_source_share(power, solid, env.width),
+        "brightest": brightest,
+        "note": env.note,
+    }
+
+
+def small_source_share(power: np.ndarray, solid: np.ndarray, width: int) -> float:
+    """The share of the map's light in its brightest texels that together cover 0.1 % of the
+    sphere: near 1 under a small sun or lamp, near 0.001 for an even sky."""
+    total = float(power.sum())
+    if total <= 0:
+        return 0.0
+    texel_solid = np.broadcast_to(solid, power.shape).ravel()
+    radiance = power.ravel() / texel_solid
+    order = np.argsort(radiance)[::-1]
+    covered = np.cumsum(texel_solid[order])
+    n = int(np.searchsorted(covered, SMALL_SOURCE_SHARE * 4.0 * np.pi)) + 1
+    return float(power.ravel()[order[:n]].sum() / total)
+
+
+def summary_line(info: dict) -> str:
+    """One human line for a map's description."""
+    m = info["map"]
+    line = (f"{info['file']}: environment map, {m['layout']}, read as {m['latlong_size'][0]}×{m['latlong_size'][1]} "
+            f"lat-long; mean radiance {m['mean_radiance']:.4g}, dynamic range {m['dynamic_range']:.3g}:1; "
+            f"{100 * m['small_source_share']:.1f} % of the light from the brightest 0.1 % of the sphere")
+    return line + (f"\n  note: {m['note']}" if m["note"] else "")
