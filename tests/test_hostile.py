@@ -251,6 +251,23 @@ def build_corpus_of_issue_30(d: Path) -> None:
     w("long_name.xml", measured("x" * 5000 + ".slice", "BivariateSlice"))
     (d / os.fsdecode(b"caf\xe9.xml")).write_bytes(b"<BRDF>")  # a Latin-1 name on a UTF-8 system
     (d / "new\nline.xml").write_text("<BRDF>")
+    build_corpus_of_issue_37(d)
+
+
+def _angular_probe(n: int) -> np.ndarray:
+    """An n × n angular light probe (Debevec's layout): a smooth disk on a black surround."""
+    c = (np.arange(n, dtype=np.float32) + 0.5) / n * 2 - 1
+    x, y = np.meshgrid(c, -c)
+    probe = np.stack([0.5 + 0.4 * x, 0.5 + 0.4 * y, 0.3 + 0.2 * np.cos(8 * x)], axis=-1)
+    probe[np.hypot(x, y) > 1] = 0.0
+    return probe
+
+
+def build_corpus_of_issue_37(d: Path) -> None:
+    """Files the lab never saw (issue 37 §1): a real probe's size."""
+    from brdflab.lighting.envmap import write_exr
+
+    write_exr(d / "probe_1000.exr", _angular_probe(1000))  # grace_probe.hdr's size: its 6000 × 3000 float64 grid needed 3 GB
 
 
 @dataclass
@@ -426,6 +443,10 @@ CASES: dict[str, Case] = {
     "name-too-long": Case(E("long_name.xml"), names="xxxxxxxx", words=("missing",)),
     "file-name-not-utf8": Case(["info", os.fsdecode(b"caf\xe9.xml")], names="caf\\xe9.xml"),
     "file-name-newline": Case(["info", "new\nline.xml"], names="new\\nline.xml"),
+    # --- issue 37 §1 ---
+    # a real probe's size, resampled to lat-long within the memory limit by every environment mode
+    **{f"probe-1000-{mode}": Case(R(str(FIG2), "--mode", mode, "--env", "probe_1000.exr"), status=0)
+       for mode in ("fis", "sh", "prefiltered")},
 }
 
 

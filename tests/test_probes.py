@@ -158,6 +158,20 @@ def test_probe_renders_like_latlong(tmp_path, original, layout, extent):
 
 
 @needs_shared("envmaps", "venice_sunset_1k.hdr")
+def test_a_probe_larger_than_the_largest_map_is_resampled_to_it(original, tmp_path, monkeypatch):
+    """A probe's lat-long map is 2n × n up to the largest map the lab reads (8192 × 4096, here
+    lowered to 128 × 64 for a 256-texel probe) and no larger; it still lights like the original."""
+    from brdflab.lighting import probes
+
+    monkeypatch.setattr(probes, "MAX_HEIGHT", 64)
+    path = tmp_path / "probe.exr"
+    write_exr(path, make_angular(original.data, 256))
+    opened = load_environment(path, "angular")
+    assert opened.data.shape == (64, 128, 3) and opened.data.dtype == np.float32
+    assert render_error(opened.data, original.downsampled(128, 64).data) < 0.01
+
+
+@needs_shared("envmaps", "venice_sunset_1k.hdr")
 def test_layout_detection(original, tmp_path):
     from brdflab.lighting.probes import detect_layout
 

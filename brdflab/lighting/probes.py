@@ -13,6 +13,8 @@ Conventions (world +Y up; Debevec's and BRDFLab's worlds are this one with z neg
   One 2n × n image holds front | back side by side.
 Texels outside a disk are replaced by the nearest texel on its rim before bilinear
 filtering, and each lat-long texel averages 3 × 3 sub-samples, so rims leave no seam.
+The resampling runs in float32, a band of rows at a time: the whole sub-sample grid of a
+1000 × 1000 probe (6000 × 3000 directions, float64 temporaries) needed more than 3 GB.
 """
 
 from __future__ import annotations
@@ -23,10 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.lighting.envmap import uv_to_direction
+from brdflab.lighting.envmap import MAX_PIXELS, uv_to_direction
 
 LAYOUTS = ("auto", "latlong", "angular", "dual-paraboloid")
 SUPERSAMPLE = 3
+BAND_TEXELS = 1 << 15  # lat-long texels resampled at once (~150 bytes per sub-sample in temporaries)
+MAX_HEIGHT = int(np.sqrt(MAX_PIXELS // 2))  # the largest 2h × h map the lab reads (4096)
 EXTENTS = np.round(np.arange(1.0, 1.501, 0.01), 2)  # the dual-paraboloid spans tried
 _HALF = re.compile(r"^(.*[-_ .])(front|back)$", re.IGNORECASE)
 
@@ -98,11 +102,12 @@ def _bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return top * (1 - ty) + bottom * ty
 
 
-def _latlong_directions(height: int) -> np.ndarray:
-    """World directions of SUPERSAMPLE² sub-samples per texel of a 2h × h lat-long map."""
+def _latlong_directions(height: int, rows: range) -> np.ndarray:
+    """World directions (float32) of SUPERSAMPLE² sub-samples per texel of `rows` of a 2h × h
+    lat-long map."""
     width, s = 2 * height, SUPERSAMPLE
-    v = (np.arange(height * s) + 0.5) / (height * s)
-    u = (np.arange(width * s) + 0.5) / (width * s)
+    v = (np.arange(rows.start * s, rows.stop * s, dtype=np.float32) + 0.5) / np.float32(height * s)
+    u = (np.arange(width * s, dtype=np.float32) + 0.5) / np.float32(width * s)
     return uv_to_direction(u[None, :], v[:, None])
 
 
@@ -137,9 +142,10 @@ def paraboloid_extent(front: np.ndarray, back: np.ndarray) -> float:
 
 def _sample(halves: list[np.ndarray], layout: str, d: np.ndarray, extent: float) -> np.ndarray:
     if layout == "angular":
-        r = np.arccos(np.clip(-d[..., 2], -1.0, 1.0)) / np.pi
-        rho = np.maximum(np.hypot(d[..., 0], d[..., 1]), 1e-12)
-        return _disk_lookup(halves[0], d[..., 0] / rho * r, -d[..., 1] / rho * r)
+        rho = np.hypot(d[..., 0], d[..., 1])
+        r = np.arctan2(rho, -d[..., 2]) / np.float32(np.pi)  # acos(−d.z)/π, exact near the disk's centre
+        scale = r / np.maximum(rho, np.float32(1e-12))
+        return _disk_lookup(halves[0], d[..., 0] * scale, -d[..., 1] * scale)
     front = d[..., 2] >= 0.0
     out = np.empty(d.shape[:-1] + (3,), np.float32)
     for half, is_front, where in ((halves[0], True, front), (halves[1], False, ~front)):
@@ -151,7 +157,7 @@ def _sample(halves: list[np.ndarray], layout: str, d: np.ndarray, extent: float)
 def probe_to_latlong(data: np.ndarray, layout: str, path=None, back: np.ndarray | None = None,
                      back_path=None) -> np.ndarray:
     """Resample an angular map or dual-paraboloid pair to a lat-long map (2n × n, n the
-    probe's side in texels), averaging sub-samples so rims leave no seam. A pair is `data`
+    probe's side in texels, at most MAX_HEIGHT), averaging sub-samples so rims leave no seam. A pair is `data`
     (front, from `path`) and `back` (from `back_path`), or one 2n × n image holding front | back."""
     h, w = data.shape[:2]
     if layout == "angular" and h != w:
@@ -167,7 +173,11 @@ def probe_to_latlong(data: np.ndarray, layout: str, path=None, back: np.ndarray 
                                f"{w}×{h} and {back.shape[1]}×{back.shape[0]}", back_path or path)
     halves = [_fill_outside_disk(x.astype(np.float32)) for x in ((data,) if back is None else (data, back))]
     extent = 1.0 if back is None else paraboloid_extent(*halves)
-    height = data.shape[0]
-    fine = _sample(halves, layout, _latlong_directions(height), extent)
-    s = SUPERSAMPLE
-    return fine.reshape(height, s, 2 * height, s, 3).mean(axis=(1, 3)).astype(np.float32)
+    height, s = min(data.shape[0], MAX_HEIGHT), SUPERSAMPLE
+    out = np.empty((height, 2 * height, 3), np.float32)
+    step = max(1, BAND_TEXELS // (2 * height))
+    for top in range(0, height, step):
+        rows = range(top, min(top + step, height))
+        fine = _sample(halves, layout, _latlong_directions(height, rows), np.float32(extent))
+        out[rows.start:rows.stop] = fine.reshape(len(rows), s, 2 * height, s, 3).mean(axis=(1, 3))
+    return out
