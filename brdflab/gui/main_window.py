@@ -8,8 +8,8 @@ from pathlib import Path
 
 from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QSettings, Qt, QTimer, Slot
 from PySide6.QtGui import QAction, QGuiApplication, QKeySequence, QUndoCommand, QUndoStack
-from PySide6.QtWidgets import (QDockWidget, QFileDialog, QLabel, QMainWindow, QMessageBox, QProgressBar, QPushButton,
-                               QScrollArea, QSplitter, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QApplication, QDockWidget, QFileDialog, QLabel, QMainWindow, QMenu, QMessageBox,
+                               QProgressBar, QPushButton, QScrollArea, QSplitter, QVBoxLayout, QWidget)
 
 from brdflab.gui.export_dialog import export_dialog
 
@@ -35,6 +35,7 @@ from brdflab.gui.auto_ladder import AutoLadderPanel
 from brdflab.gui.auto_lighting import chosen, choose_job
 from brdflab.gui.background import AutoFitProcess, FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
+from brdflab.gui.fields import FieldGuard
 from brdflab.gui.probe_open import MAP_FILTER, ask_back_half, front_and_back
 from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
                                 MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries,
@@ -55,7 +56,9 @@ CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
 <tr><td><b>Object view</b></td><td></td></tr>
 <tr><td>drag (left button)</td><td>orbit the camera</td></tr>
 <tr><td>wheel</td><td>zoom</td></tr>
-<tr><td><b>Parameters</b></td><td>drag a slider or type a value and press Enter; Ctrl+Z / Ctrl+Shift+Z undo and redo</td></tr>
+<tr><td><b>Parameters</b></td><td>drag a slider or type a value and press Enter; Ctrl+Z / Ctrl+Shift+Z undo and redo
+(in a field too, once its value is entered)</td></tr>
+<tr><td><b>Panels</b></td><td>the wheel scrolls a panel; a field takes the wheel only once clicked</td></tr>
 <tr><td><b>Fitting</b></td><td>Ctrl+F fits, Ctrl+Shift+F fits Auto, Esc stops (the best result so far is kept)</td></tr>
 <tr><td><b>Files</b></td><td>Ctrl+O open, Ctrl+S save, drop a material, mesh or map on the window</td></tr>
 <tr><td><b>Layout</b></td><td>drag the bar between the two views; View → Reset layout</td></tr>
@@ -148,6 +151,8 @@ class ReplaceFittings(QUndoCommand):
 class MainWindow(QMainWindow):
     def __init__(self, settings: QSettings | None = None) -> None:
         super().__init__()
+        self._field_guard = FieldGuard(self._shortcut_texts, self)  # first: it sees every field polished
+        QApplication.instance().installEventFilter(self._field_guard)
         self.settings = settings or QSettings()
         self.resize(1500, 950)
         self.setMinimumSize(800, 560)  # fits a 1366 × 768 laptop with room for its panel
@@ -413,6 +418,11 @@ class MainWindow(QMainWindow):
         help_menu = self.menuBar().addMenu("&Help")
         help_menu.addAction("&Mouse and keyboard", self.show_controls_help).setShortcut(QKeySequence.HelpContents)
         self._update_recent()
+
+    def _shortcut_texts(self) -> set[str]:
+        """The key sequences (as text) of the window's menu actions: a number field leaves them to the window."""
+        return {k.toString() for menu in self.menuBar().findChildren(QMenu) for a in menu.actions()
+                for k in a.shortcuts() if not k.isEmpty()}
 
     def _fit_screen(self) -> None:
         """First start: the default size, shrunk to the screen's free area (a 1366 × 768 laptop)."""
@@ -1102,6 +1112,7 @@ class MainWindow(QMainWindow):
         self.editor.shutdown()
         self.plots.shutdown()
         self.charts.shutdown()
+        QApplication.instance().removeEventFilter(self._field_guard)
         self._fits_energy_job.shutdown()
         self._auto_level_job.shutdown()
         self._refine_job.shutdown()

@@ -33,6 +33,7 @@ from PySide6.QtWidgets import (
 
 from brdflab.gui.auto_lighting import details, summary
 from brdflab.gui.background import LatestOnly
+from brdflab.gui.fields import typing
 from brdflab.gui.probe_open import LAYOUT_TIP
 from brdflab.lighting.probes import LAYOUTS
 from brdflab.lighting.auto import DEFAULT_TOLERANCE as LIGHTING_TOLERANCE
@@ -102,8 +103,9 @@ class ParameterRow(QWidget):
         return self.lower + t * (self.upper - self.lower)
 
     def held(self) -> bool:
-        """Whether the user is working this row now (dragging, or typing in it)."""
-        return self.slider.isSliderDown() or self.spin.hasFocus()
+        """Whether the user is working this row now (dragging, or typing in it): a focused box
+        whose value was entered follows an undo."""
+        return self.slider.isSliderDown() or (self.spin.hasFocus() and typing(self.spin))
 
     def set_value(self, v: float) -> None:
         with QSignalBlocker(self.spin), QSignalBlocker(self.slider):
