@@ -14,9 +14,7 @@ import numpy as np
 
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import get_model
-from brdflab.models.principled import CHANNELS, specular_eta, tint
-
-MIN_SPECULAR = 1e-4  # Mitsuba drops its whole main lobe at specular = 0 (η = 1); what the exports write at least
+from brdflab.models.principled import CHANNELS, MIN_SPECULAR, specular_eta, tint
 
 
 @dataclass

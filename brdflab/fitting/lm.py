@@ -39,6 +39,7 @@ from brdflab.fitting.diagnosis import suspicions
 from brdflab.fitting.nnls import nnls
 from brdflab.fitting.metrics import METRICS, lobe_shares, metric_errors, sample_weight
 from brdflab.fitting.samples import SampleSet
+from brdflab.geometry.vec import shared_half_vectors
 
 COMPRESSIONS = ("none", "cbrt", "log")
 FD_STEP = 1e-5  # in the search variables; 1e-4 was too coarse for sharp lobes (see `_normal_equations`)
@@ -182,7 +183,7 @@ def free_blocks(material: AnalyticMaterial, magnitude_cap: float | None = None) 
             blocks.append(FreeBlock(l, tuple(group), "direction", norm=min(norm, bound)))
         for p in lobe.model.parameters:
             if p.name not in group and p.fitted and p.upper > p.lower:  # a switch keeps its value
-                blocks.append(FreeBlock(l, (p.name,), "scalar", Bounded(p.lower, p.upper, p.log)))
+                blocks.append(FreeBlock(l, (p.name,), "scalar", Bounded(p.search_lower, p.upper, p.log)))
         if material.combination == "Fixed" and lobe.model.scaled:
             blocks.append(FreeBlock(l, (), "magnitude", Positive() if magnitude_cap is None else Capped(magnitude_cap)))
     return blocks
@@ -375,8 +376,9 @@ class _Problem:
         lobes = self.material.lobes
         K = 3 if C == 3 and any(lobes[l].model.colour for l, _ in rows) else 1
         E = np.empty((K, R, wi.shape[0]))
-        for r, (l, p) in enumerate(rows):
-            E[:, r] = lobe_channels(lobes[l].model, wi, wo, p, C).T
+        with shared_half_vectors():  # every row is one lobe at these directions
+            for r, (l, p) in enumerate(rows):
+                E[:, r] = lobe_channels(lobes[l].model, wi, wo, p, C).T
         G = np.empty((C, R, R))
         b = np.empty((C, R))
         yy = np.empty(C)

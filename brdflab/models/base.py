@@ -82,6 +82,14 @@ class Parameter:
     # "float"; "bool" (0 or 1, a switch: held fixed by a fit); "colour" (one component of a
     # colour, as BRDF Explorer's `color` parameters are read: NAME_r, NAME_g, NAME_b)
     kind: str = "float"
+    # where a fit's search stops short of `lower` (None: at `lower`): a value a file may hold
+    # but a fit must not end on (Principled's specular = 0, where Mitsuba drops its main lobe)
+    fit_lower: float | None = None
+
+    @property
+    def search_lower(self) -> float:
+        """The lowest value a fit searches."""
+        return self.lower if self.fit_lower is None else self.fit_lower
 
     @property
     def fitted(self) -> bool:

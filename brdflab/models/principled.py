@@ -5,7 +5,7 @@
 | base_color_r/g/b | 0.5 | 0–1 | base colour (diffuse albedo; a metal's F0) |
 | metallic | 0 | 0–1 | blend of dielectric and metal |
 | subsurface | 0 | 0–1 | Hanrahan–Krueger "flatness" blend of the diffuse (Mitsuba's `flatness`) |
-| specular | 0.5 | 0–1 | dielectric F0 = 0.08 · specular, i.e. η = 2 / (1 − √(0.08 specular)) − 1 |
+| specular | 0.5 | 0–1 (fits: from 1e-4) | dielectric F0 = 0.08 · specular, i.e. η = 2 / (1 − √(0.08 specular)) − 1 |
 | specular_tint | 0 | 0–1 | share of the dielectric reflection tinted towards the base colour's hue |
 | roughness | 0.5 | 0–1 | GGX α = max(0.001, roughness²) |
 | anisotropic | 0 | 0–1 | αx = α / √(1 − 0.9 a), αy = α √(1 − 0.9 a) |
@@ -45,17 +45,21 @@ from brdflab.models.registry import register
 # Mitsuba's luminance of linear sRGB (mitsuba/core/spectrum.h), used for the tints
 TINT_LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 CHANNELS = ("r", "g", "b")
+# Mitsuba's `specular` = 0 is η = 1, for which it drops its whole main lobe (the metal and the
+# tint too) while the lab's value runs on continuously: fits end at this at least, and the
+# exports write at least this (tests/test_principled.py measures both against Mitsuba)
+MIN_SPECULAR = 1e-4
 
 
-def _unit(name: str, default: float, doc: str) -> Parameter:
-    return Parameter(name, default, 0.0, 1.0, "1", doc)
+def _unit(name: str, default: float, doc: str, fit_lower: float | None = None) -> Parameter:
+    return Parameter(name, default, 0.0, 1.0, "1", doc, fit_lower=fit_lower)
 
 
 PARAMETERS = (
     *(Parameter(f"base_color_{c}", 0.5, 0.0, 1.0, "1", f"base colour, {c}", kind="colour") for c in CHANNELS),
     _unit("metallic", 0.0, "0 dielectric, 1 metal"),
     _unit("subsurface", 0.0, "flattens the diffuse (Mitsuba's flatness)"),
-    _unit("specular", 0.5, "dielectric F0 = 0.08 specular"),
+    _unit("specular", 0.5, "dielectric F0 = 0.08 specular", fit_lower=MIN_SPECULAR),
     _unit("specular_tint", 0.0, "tints the dielectric reflection towards the base colour"),
     _unit("roughness", 0.5, "GGX α = roughness²"),
     _unit("anisotropic", 0.0, "0 isotropic; stretches α along x"),
