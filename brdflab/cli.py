@@ -254,13 +254,20 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
         if given:
             raise BRDFLabError(f"{option} does not apply to --auto (it fits its own split of the samples)")
     source = load_source(source_path, fitting=args.fitting, warn=_warner(args))
+    if args.out:
+        check_savable(document_for(source_path, source), args.out)  # a name XML cannot hold, before the ladder
     options = FitOptions(metric=args.metric, compression=args.compression, max_iterations=args.max_iterations,
                          time_limit=args.time_limit, restarts=args.restarts is not False)
     models = _lobe_names(args.models) if args.models else None
     for name in models or []:
         get_model(name)  # an unknown name fails before any fit
+    t0 = time.perf_counter()
+
+    def progress(p) -> None:  # a line per screen and full fit: a climb takes minutes, and says so as it goes
+        print(f"brdflab fit: auto: {p.describe()} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
+
     ladder = auto_fit(samples_of(source), tolerance, args.metric, {"linear": "Linear", "fixed": "Fixed"}[args.combination],
-                      split=args.size or DEFAULT_SPLIT, models=models, options=options)
+                      split=args.size or DEFAULT_SPLIT, models=models, options=options, progress=progress)
     chosen = chosen_fit(ladder)
     payload = {**ladder.as_dict(), "source": str(source_path), "fit": chosen.as_dict()}
     if args.out:

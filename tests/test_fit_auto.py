@@ -3,6 +3,7 @@ no longer pay on held-back samples, honour the tolerance, and the CLI stores the
 
 import json
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -176,6 +177,14 @@ def test_cli_auto_out_writes_a_fitting_that_info_lists(tmp_path):
     assert fitting["statistics"]["heldBackSamples"] == 1000
     text = _cli("fit", str(SLICE), "--auto", "--models", "BlinnPhong", "--size", "500", cwd=tmp_path)
     assert text.returncode == 0 and "held back" in text.stdout and "*" in text.stdout
+    # progress: a line on stderr per screen and full fit, with rung, candidate, best so far and elapsed time
+    lines = [l for l in proc.stderr.splitlines() if l.startswith("brdflab fit: auto: ")]
+    fitted = [c for c in ladder["candidates"] if c["fitted"]]
+    screened = [c for c in ladder["candidates"] if c["screen_error"] is not None]
+    assert len(lines) == len(fitted) + len(screened)
+    assert all(re.search(r"rung \d, candidate \d+ of about \d+: (screened|fitted) Lambertian.*best so far "
+                         r"Lambertian\S* [\d.e-]+ \(\d+\.\d s\)$", l) for l in lines), lines
+    assert {int(re.search(r"rung (\d)", l).group(1)) for l in lines} == {c["rung"] for c in ladder["candidates"]}
 
 
 @pytest.mark.parametrize("args", [["--tolerance", "-0.5"], ["--tolerance", "inf"], ["--tolerance", "x"],

@@ -133,9 +133,10 @@ class AutoProgress:
     error: float  # its held-back error (of its quick fit when screened)
     best: str  # the lowest held-back error fully fitted so far
     best_error: float
+    rung: int = 0  # the candidate's rung: lobes after the Lambertian
 
     def describe(self) -> str:
-        return (f"candidate {self.step} of about {self.expected}: {self.stage} {self.candidate} "
+        return (f"rung {self.rung}, candidate {self.step} of about {self.expected}: {self.stage} {self.candidate} "
                 f"(held back {self.error:.4g}); best so far {self.best} {self.best_error:.4g}")
 
 
@@ -178,7 +179,7 @@ class _Climb:
         if self.progress is not None and self.best is not None:
             error = candidate.error_held_back if stage == "fitted" else candidate.screen_error
             self.progress(AutoProgress(self.step, max(self.expected, self.step), stage, _label(candidate), error,
-                                       _label(self.best), self.best.error_held_back))
+                                       _label(self.best), self.best.error_held_back, candidate.rung))
 
 
 def _number(x: float) -> float | None:
