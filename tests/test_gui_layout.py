@@ -73,6 +73,47 @@ def test_a_window_shrunk_and_grown_again_gives_its_panels_their_width_back(windo
     assert not cut_panels(window, qtbot)
 
 
+def bottom_overlap(window) -> int:
+    """Pixels by which the Fitting panel runs under the Plots panel beside it."""
+    return window._docks["Fitting"].geometry().right() + 1 - window._docks["Plots"].geometry().left()
+
+
+def test_fitting_and_plots_never_overlap_at_any_size_the_window_allows(window, qtbot):  # noqa: F811
+    """Issue 37 §4: at 1024 × 700 the Fitting and Plots panels overlapped (the layout needed
+    1,042 px, the window allowed 800)."""
+    window.resize(1024, 700)
+    qtbot.waitUntil(lambda: window.width() == 1024, timeout=5000)
+    qtbot.wait(200)
+    shot(window, "window_1024")
+    assert bottom_overlap(window) <= 0  # before: 5 px (Plots over Fitting's scroll bar)
+    assert window.minimumSizeHint().width() <= window.minimumWidth() <= 1024  # before: needs 1,042, allows 800
+    window.resize(window.minimumWidth(), 600)  # as small as it goes
+    qtbot.wait(200)
+    assert bottom_overlap(window) <= 0
+
+
+def test_a_left_column_squeezed_by_a_small_window_gets_its_width_back(window, qtbot):  # noqa: F811
+    """Issue 37 §4: back at 1366 after a small window, the left column stayed narrow and its sliders shrank."""
+    from PySide6.QtWidgets import QSlider
+
+    window.resize(1366, 740)
+    qtbot.waitUntil(lambda: window.width() == 1366, timeout=5000)
+    window.editor.tree.setCurrentItem(window.editor.tree.topLevelItem(1))
+    qtbot.wait(200)
+    column = window._docks["Material"]
+    width = column.width()
+    window.resize(window.minimumWidth(), 600)
+    qtbot.wait(200)
+    assert column.width() < width  # the small window did squeeze it
+    window.resize(1366, 740)
+    qtbot.waitUntil(lambda: window.width() == 1366, timeout=5000)
+    qtbot.wait(200)
+    shot(window, "window_1366_after_small")
+    assert column.width() == width  # before: 340 → 309 px
+    sliders = [s.width() for s in window.editor.findChildren(QSlider) if s.isVisible()]
+    assert min(sliders) >= 100  # before: 81 px
+
+
 def test_reset_layout_brings_every_panel_back(window, qtbot):
     window._docks["Fitting"].close()
     window._docks["Material"].setFloating(True)

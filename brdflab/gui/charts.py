@@ -35,7 +35,7 @@ class ChartsPanel(QWidget):
         self.part.setToolTip("What to measure, on the current material and environment map")
         # as wide as the dock allows, not as its longest title (772 px pushed the bottom row off a laptop)
         self.part.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
-        self.part.setMinimumContentsLength(16)
+        self.part.setMinimumContentsLength(8)  # the dock beside Fitting fits a 1024-px window
         self.run_button = QPushButton("Measure")
         self.run_button.setToolTip("Measure this part now on the current scene (quick sizes, in the background)")
         self.run_button.clicked.connect(self.measure)

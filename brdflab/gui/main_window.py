@@ -36,6 +36,7 @@ from brdflab.gui.auto_lighting import chosen, choose_job
 from brdflab.gui.background import AutoFitProcess, FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
 from brdflab.gui.fields import FieldGuard
+from brdflab.gui.window_layout import ColumnKeeper
 from brdflab.gui.probe_open import MAP_FILTER, ask_back_half, front_and_back
 from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
                                 MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries,
@@ -155,7 +156,9 @@ class MainWindow(QMainWindow):
         QApplication.instance().installEventFilter(self._field_guard)
         self.settings = settings or QSettings()
         self.resize(1500, 950)
-        self.setMinimumSize(800, 560)  # fits a 1366 × 768 laptop with room for its panel
+        # the width the panels need side by side is the window's least (an 800-px minimum let the
+        # Fitting and Plots panels overlap below 1,042 px); the height a 1366 × 768 laptop allows
+        self.setMinimumHeight(560)
         self.setAcceptDrops(True)
         self.undo_stack = QUndoStack(self)
         self.undo_stack.cleanChanged.connect(self._clean_changed)
@@ -233,6 +236,7 @@ class MainWindow(QMainWindow):
         self.resizeDocks([self._docks["Fitting"], self._docks["Plots"]], [400, 900], Qt.Horizontal)
         self.resizeDocks([self._docks["Plots"]], [250], Qt.Vertical)
         self._default_layout = self.saveState(LAYOUT_VERSION)
+        self._left_keeper = ColumnKeeper(self, self._docks["Material"])
         self._warnings: dict[str, str] = {}  # what is wrong, by topic, shown above the views
         self._fits_energy_job = LatestOnly(energy_summaries, self)
         self._fits_energy_job.done.connect(self._fits_energy_known)
