@@ -114,6 +114,22 @@ def test_a_left_column_squeezed_by_a_small_window_gets_its_width_back(window, qt
     assert min(sliders) >= 100  # before: 81 px
 
 
+def test_fit_progress_and_result_stay_in_view_at_every_window_size(window, qtbot):  # noqa: F811
+    """Issue 37 §4: a fit's progress bar and status sat below the Fitting panel's fold at
+    every window size (the panel's last rows)."""
+    f = window.fitting
+    f.set_running(True)
+    f.status.setText("fitting 50000 samples…")
+    for size in ((1366, 740), (1024, 700), (window.minimumWidth(), 560)):
+        window.resize(*size)
+        qtbot.wait(200)
+        shot(window, f"fitting_{size[0]}")
+        for w in (f.progress, f.status):
+            shown = w.visibleRegion().boundingRect()
+            assert shown.height() == w.height() and shown.width() == w.width(), size  # before: 0 × 0
+    f.set_running(False)
+
+
 def test_reset_layout_brings_every_panel_back(window, qtbot):
     window._docks["Fitting"].close()
     window._docks["Material"].setFloating(True)

@@ -9,7 +9,7 @@ from pathlib import Path
 from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QSettings, Qt, QTimer, Slot
 from PySide6.QtGui import QAction, QGuiApplication, QKeySequence, QUndoCommand, QUndoStack
 from PySide6.QtWidgets import (QApplication, QDockWidget, QFileDialog, QLabel, QMainWindow, QMenu, QMessageBox,
-                               QProgressBar, QPushButton, QScrollArea, QSplitter, QVBoxLayout, QWidget)
+                               QProgressBar, QPushButton, QSplitter, QVBoxLayout, QWidget)
 
 from brdflab.gui.export_dialog import export_dialog
 
@@ -40,7 +40,7 @@ from brdflab.gui.window_layout import ColumnKeeper
 from brdflab.gui.probe_open import MAP_FILTER, ask_back_half, front_and_back
 from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
                                 MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries,
-                                refine_job)
+                                refine_job, scrolling)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
 from brdflab.gui.panels import sh_table_request
 from brdflab.models import get_model
@@ -68,18 +68,6 @@ DEFAULT_MESH = "meshes/spot.obj"
 DEFAULT_ENV = "envmaps/venice_sunset_1k.hdr"
 MAX_RECENT = 8
 RING_STEP = 2.0  # a measured table whose neighbouring θh bins differ this much shows them as rings
-
-
-def _scrolling(widget: QWidget) -> QScrollArea:
-    """A panel in a scroll area: a dock may then be shorter than its contents (small screens),
-    never narrower (a window shrunk and grown again left the Fitting panel 100 px wide,
-    scrolling sideways, until Reset layout)."""
-    area = QScrollArea()
-    area.setWidgetResizable(True)
-    area.setFrameShape(QScrollArea.NoFrame)
-    area.setWidget(widget)
-    area.setMinimumWidth(widget.minimumSizeHint().width() + area.verticalScrollBar().sizeHint().width())
-    return area
 
 
 class _ViewsArea(QWidget):
@@ -220,7 +208,8 @@ class MainWindow(QMainWindow):
         ):
             dock = QDockWidget(name, self)
             dock.setObjectName(name)
-            dock.setWidget(_scrolling(widget) if name not in ("Plots", "XML", "Charts", "Auto ladder") else widget)
+            dock.setWidget(scrolling(widget) if name not in ("Fitting", "Plots", "XML", "Charts", "Auto ladder")
+                           else widget)  # Fitting scrolls its controls itself, its progress pinned below
             self.addDockWidget(area, dock)
             self._docks[name] = dock
         # left: the material over the view options; bottom: fitting beside the plots (XML a tab)

@@ -50,6 +50,18 @@ CHANNEL_COLORS = ("#d04040", "#40a040", "#4060d0")
 SLIDER_STEPS = 1000
 
 
+def scrolling(widget: QWidget) -> QScrollArea:
+    """A panel in a scroll area: a dock may then be shorter than its contents (small screens),
+    never narrower (a window shrunk and grown again left the Fitting panel 100 px wide,
+    scrolling sideways, until Reset layout)."""
+    area = QScrollArea()
+    area.setWidgetResizable(True)
+    area.setFrameShape(QScrollArea.NoFrame)
+    area.setWidget(widget)
+    area.setMinimumWidth(widget.minimumSizeHint().width() + area.verticalScrollBar().sizeHint().width())
+    return area
+
+
 class ParameterRow(QWidget):
     """A spin box and a slider for one bounded value (log-scaled when it spans decades)."""
 
@@ -682,7 +694,8 @@ class FittingPanel(QWidget):
         self.stop_button.clicked.connect(self.stop_requested.emit)
         self.refit_button.clicked.connect(lambda: self.fits.currentRow() >= 0 and self.refit_requested.emit(self.fits.currentRow()))
         self.promote_button.clicked.connect(lambda: self.fits.currentRow() >= 0 and self.promote_requested.emit(self.fits.currentRow()))
-        grid = QGridLayout(self)
+        controls = QWidget()
+        grid = QGridLayout(controls)
         grid.addWidget(QLabel("Stored fits"), 0, 0, 1, 2)
         grid.addWidget(self.fits, 1, 0, 1, 4)
         grid.addWidget(self.refit_button, 2, 0, 1, 2)
@@ -706,9 +719,18 @@ class FittingPanel(QWidget):
         grid.addWidget(QLabel("models"), 8, 0)
         grid.addWidget(self.auto_models, 8, 1, 1, 2)
         grid.addWidget(self.ladder_button, 8, 3)
-        grid.addWidget(self.progress, 9, 0, 1, 4)
-        grid.addWidget(self.status, 10, 0, 1, 4)
         grid.setRowStretch(1, 1)  # spare height goes to the stored fits
+        # the controls scroll; a run's progress and result stay in view below them (in the
+        # grid's last rows they were below the fold at every window size)
+        column = QVBoxLayout(self)
+        column.setContentsMargins(0, 0, 0, 0)
+        column.addWidget(scrolling(controls), 1)
+        footer = QVBoxLayout()
+        margins = grid.contentsMargins()
+        footer.setContentsMargins(margins.left(), 0, margins.right(), margins.bottom())
+        footer.addWidget(self.progress)
+        footer.addWidget(self.status)
+        column.addLayout(footer)
 
     def _request(self) -> None:
         lobes = [s.strip() for s in self.lobes.currentText().split(",") if s.strip()]
