@@ -268,6 +268,9 @@ class MainWindow(QMainWindow):
                 self.views.restoreState(views)
         else:
             self._fit_screen()
+        self._restoring_layout = False  # a layout restored puts its own tabs in front
+        for dock in self._docks.values():  # connected after the saved layout is restored
+            dock.topLevelChanged.connect(lambda floating, d=dock: self._docked_again(d, floating))
         self._placed = False  # the first show puts the window and its floated panels on screen
         self._object_settings_changed()
         self.set_workspace(self.workspace)
@@ -451,11 +454,19 @@ class MainWindow(QMainWindow):
 
     def reset_layout(self) -> None:
         """Every panel back where it starts, the two views at their first proportions."""
+        self._restoring_layout = True
         self.restoreState(self._default_layout, LAYOUT_VERSION)
         for dock in self._docks.values():
             dock.setFloating(False)
+        self._restoring_layout = False
         total = sum(self.views.sizes())
         self.views.setSizes([total * 3 // 5, total - total * 3 // 5])
+
+    def _docked_again(self, dock: QDockWidget, floating: bool) -> None:
+        """A floating panel docked again (a double-click on its title) comes to the front of
+        its tabs: it went back as a hidden tab behind the one in front (Plots behind XML)."""
+        if not floating and not self._restoring_layout:
+            dock.raise_()
 
     def show_controls_help(self) -> None:
         box = QMessageBox(QMessageBox.Information, "BRDFLab — controls", CONTROLS_HELP, QMessageBox.Ok, self)

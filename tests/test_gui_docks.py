@@ -1,0 +1,37 @@
+"""The window's panels and the document they show (issue 37 §4)."""
+
+import os
+
+import pytest
+from PySide6.QtCore import QEvent, QPointF, Qt
+from PySide6.QtGui import QMouseEvent
+from PySide6.QtWidgets import QApplication
+
+from test_gui import window  # noqa: F401  (the fixture)
+from test_gui_trust import shot
+
+pytestmark = pytest.mark.skipif(
+    not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") not in ("offscreen",),
+    reason="needs a display (CI runs the suite under xvfb-run)",
+)
+
+
+def double_click_title(dock) -> None:
+    """A double-click on a floating panel's title bar, as the window manager reports it."""
+    event = QMouseEvent(QEvent.NonClientAreaMouseButtonDblClick, QPointF(10, -10), QPointF(dock.mapToGlobal(dock.pos())),
+                        Qt.LeftButton, Qt.LeftButton, Qt.NoModifier)
+    QApplication.sendEvent(dock, event)
+
+
+@pytest.mark.parametrize("name", ["Plots", "Charts"])
+def test_a_floating_panel_double_clicked_docks_in_front_of_its_tabs(window, qtbot, name):  # noqa: F811
+    window.resize(1366, 740)
+    dock = window._docks[name]
+    dock.setFloating(True)
+    window._docks["XML"].raise_()  # another tab of its group in front meanwhile
+    qtbot.wait(200)
+    double_click_title(dock)
+    qtbot.waitUntil(lambda: not dock.isFloating(), timeout=3000)
+    qtbot.wait(200)
+    shot(window, f"docked_{name}")
+    assert not dock.visibleRegion().isEmpty()  # before: docked as a hidden tab behind XML
