@@ -531,12 +531,11 @@ def display_problem(env) -> str | None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from brdflab.export import export_source
-    from brdflab.io.atomic import check_writable
+    from brdflab.export import check_destination, export_source
     from brdflab.sources.files import load_source
 
     out = Path(args.out)
-    check_writable(out)
+    check_destination(args.format, out, Path(args.source))  # before the source is read (a simulation, a table)
     source = load_source(Path(args.source), fitting=args.fitting)
     env = None
     if args.env_back and not args.env:

@@ -264,10 +264,13 @@ def _angular_probe(n: int) -> np.ndarray:
 
 
 def build_corpus_of_issue_37(d: Path) -> None:
-    """Files the lab never saw (issue 37 §1): a real probe's size."""
+    """Files the lab never saw (issue 37 §1): a real probe's size, export destinations that lose a file."""
     from brdflab.lighting.envmap import write_exr
 
     write_exr(d / "probe_1000.exr", _angular_probe(1000))  # grace_probe.hdr's size: its 6000 × 3000 float64 grid needed 3 GB
+    shutil.copy(ROOT / "materials" / "principled_car_paint.xml", d / "paint.xml")  # exports without a fit
+    (d / "paint_link.xml").symlink_to("paint.xml")
+    (d / "own_env.exr").write_bytes(b"someone's own map")
 
 
 @dataclass
@@ -447,6 +450,15 @@ CASES: dict[str, Case] = {
     # a real probe's size, resampled to lat-long within the memory limit by every environment mode
     **{f"probe-1000-{mode}": Case(R(str(FIG2), "--mode", mode, "--env", "probe_1000.exr"), status=0)
        for mode in ("fis", "sh", "prefiltered")},
+    # exports: the format's own name, never over the source or over a file the export did not write
+    "export-over-source": Case(["export", "paint.xml", "--format", "mitsuba", "--out", "paint_link.xml"],
+                               names="paint_link.xml", words=("never replaces its source",)),
+    "export-glsl-named-txt": Case(["export", str(FIG2), "--format", "glsl", "--out", "fig2.txt"], names="fig2.txt",
+                                  words=("named .glsl",)),
+    "export-merl-named-xml": Case(["export", "paint.xml", "--format", "merl", "--out", "paint_table.xml"],
+                                  names="paint_table.xml", words=("named .binary",)),
+    "export-map-over-a-file": Case(["export", "paint.xml", "--format", "mitsuba", "--out", "own.xml"],
+                                   names="own_env.exr", words=("not the map of a scene being replaced",)),
 }
 
 

@@ -6,11 +6,50 @@ import os
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.atomic import atomic_write, check_writable
 
 # the renderers' family: the source goes out as Disney's principled parameters (export/principled.py)
 PRINCIPLED_FORMATS = ("mitsuba", "mtlx", "gltf")
 FORMATS = ("merl", "brdf-explorer", "glsl", *PRINCIPLED_FORMATS)
-SUFFIXES = {"merl": "binary", "brdf-explorer": "brdf", "glsl": "glsl", "mitsuba": "xml", "mtlx": "mtlx", "gltf": "gltf"}
+# the names a format's file may have (what reads it goes by the name), and the line that says so
+NAMES = {
+    "merl": ((".binary",), "a MERL export is named .binary (the name MERL's readers take)"),
+    "brdf-explorer": ((".brdf",), "a BRDF Explorer export is named .brdf (the files BRDF Explorer opens)"),
+    "glsl": ((".glsl",), "a GLSL export is named .glsl"),
+    "mitsuba": ((".xml",), "a Mitsuba export is named .xml (the scene; its map goes beside it as NAME_env.exr)"),
+    "mtlx": ((".mtlx",), "a MaterialX export is named .mtlx"),
+    # the container follows the name (.glb binary, .gltf JSON): another name says neither
+    "gltf": ((".gltf", ".glb"), "a glTF export is named .gltf (JSON, buffer embedded) or .glb (binary)"),
+}
+SUFFIXES = {fmt: suffixes[0][1:] for fmt, (suffixes, _) in NAMES.items()}  # the default of each
+
+
+def check_destination(fmt: str, path: Path, origin: Path | None = None) -> None:
+    """Refuse in one line, before any work, an export that no reader would open or that would
+    lose a file: a name that does not say the format, the source itself (`origin`, also through
+    a link or another spelling of its path), a folder that cannot take the file, a Mitsuba map
+    that would replace a file other than the map of the scene being replaced."""
+    if fmt not in NAMES:
+        raise BRDFLabError(f"unknown export format {fmt!r}; one of {', '.join(FORMATS)}", path)
+    suffixes, rule = NAMES[fmt]
+    if path.suffix.lower() not in suffixes:
+        raise BRDFLabError(rule, path)
+    if origin is not None and _same_file(path, origin):
+        raise BRDFLabError("it is the file being exported: an export never replaces its source (choose another "
+                           "--out)", path)
+    check_writable(path)
+    if fmt == "mitsuba":
+        from brdflab.export.mitsuba import check_map_destination
+
+        check_map_destination(path)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether two paths name one file (links followed); a path with nothing there is no file."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
 
 
 def export_source(source, fmt: str, path: str | os.PathLike, origin: Path | None = None, env=None,
@@ -18,10 +57,10 @@ def export_source(source, fmt: str, path: str | os.PathLike, origin: Path | None
     """Write `source` to `path` in format `fmt` (one of FORMATS), atomically; errors about
     the source name `origin`, the file it came from. Returns what the export could not carry
     (one line each, with the error it costs). `env`: the map of a Mitsuba scene (default: the
-    shipped one); `cancel` (an Event) stops a fit on the way out, and nothing is written."""
-    from brdflab.io.atomic import atomic_write
-
+    shipped one); `cancel` (an Event) stops a fit on the way out, and nothing is written.
+    The destination is checked first (`check_destination`)."""
     path = Path(path)
+    check_destination(fmt, path, origin)
     if fmt == "merl":
         from brdflab.export.merl import export_merl
 
@@ -35,23 +74,27 @@ def export_source(source, fmt: str, path: str | os.PathLike, origin: Path | None
             raise BRDFLabError(f"{fmt} export needs an analytic material or a stored fit (--fitting K)", origin or path)
         text = glsl_function(source) if fmt == "glsl" else brdf_explorer_file(source)
         atomic_write(path, text.encode())
-    elif fmt in PRINCIPLED_FORMATS:
-        return _export_principled(source, fmt, path, env, cancel)
     else:
-        raise BRDFLabError(f"unknown export format {fmt!r}; one of {', '.join(FORMATS)}", path)
+        return _export_principled(source, fmt, path, origin, env, cancel)
     return []
 
 
-def _export_principled(source, fmt: str, path: Path, env, cancel) -> list[str]:
+def export_name(source, path: Path, origin: Path | None) -> str:
+    """What an exported material is called: the source's own name; a fit's (every fit is
+    FIT_NAME, which says nothing) is the stem of the file it came from, else of the export."""
+    from brdflab.fitting.lm import FIT_NAME
+
+    name = getattr(source, "name", None)
+    return name if name and name != FIT_NAME else (origin or path).stem
+
+
+def _export_principled(source, fmt: str, path: Path, origin: Path | None, env, cancel) -> list[str]:
     from brdflab.export.principled import as_principled
 
-    if fmt == "gltf" and path.suffix.lower() not in (".gltf", ".glb"):
-        # the container follows the name (.glb binary, .gltf JSON): another name says neither
-        raise BRDFLabError("a glTF export is named .gltf (JSON, buffer embedded) or .glb (binary)", path)
     export = as_principled(source, fmt, cancel)
     if cancel is not None and cancel.is_set():
         raise BRDFLabError("export cancelled: nothing was written", path)
-    name = getattr(source, "name", None) or path.stem
+    name = export_name(source, path, origin)
     if fmt == "mitsuba":
         from brdflab.export.mitsuba import export_mitsuba
         from brdflab.io.resources import default_environment_path

@@ -16,11 +16,16 @@ Conventions matched (tests/test_export_mitsuba.py renders both):
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from lxml import etree
 
+from brdflab.errors import BRDFLabError
 from brdflab.export.principled import MIN_SPECULAR, PrincipledExport
+from brdflab.io.atomic import atomic_write, check_writable, write_target
+from brdflab.io.bounded import read_bounded
+from brdflab.io.xmlio import MAX_XML_BYTES, checked_root
 
 ANISOTROPY_SAID = 0.01  # below this the highlights' orientation does not show
 NAMES = {"subsurface": "flatness", "specular_tint": "spec_tint"}
@@ -70,15 +75,44 @@ def scene_text(export: PrincipledExport, env_file: str, env_width: int, name: st
     return etree.tostring(scene, pretty_print=True, xml_declaration=True, encoding="UTF-8")
 
 
+def map_path(path: Path) -> Path:
+    """Where a scene written to `path` has its map: `<stem>_env.exr` beside the file the scene
+    goes to (through a link, beside the linked file, where the scene looks for it)."""
+    scene = write_target(path)
+    return scene.with_name(scene.stem + "_env.exr")
+
+
+def scene_map(scene: Path) -> str | None:
+    """The map file a Mitsuba scene names (its envmap emitter's filename); None when `scene`
+    is no such scene (or nothing)."""
+    try:
+        root, _ = checked_root(read_bounded(scene, MAX_XML_BYTES, "a scene"), scene, "scene")
+    except BRDFLabError:
+        return None
+    names = root.xpath("/scene/emitter[@type='envmap']/string[@name='filename']/@value")
+    return names[0] if names else None
+
+
+def check_map_destination(path: Path) -> None:
+    """Refuse, before any work, a scene whose map would replace a file other than the map of
+    the scene being replaced (a re-export replaces both, and says so)."""
+    env_path = map_path(path)
+    if os.path.lexists(env_path) and scene_map(write_target(path)) != env_path.name:
+        raise BRDFLabError("a Mitsuba export writes its scene's map here, and this file is not the map of a scene "
+                           "being replaced: refused (move it, or choose another --out)", env_path)
+    check_writable(env_path)
+
+
 def export_mitsuba(export: PrincipledExport, path: Path, env, name: str) -> list[str]:
-    """Write the scene to `path` and the map beside it (`<stem>_env.exr`); returns the warnings."""
-    from brdflab.io.atomic import atomic_write
+    """Write the scene to `path` and the map beside it (`map_path`); returns the warnings."""
     from brdflab.lighting.envmap import write_exr
 
-    env_path = path.with_name(path.stem + "_env.exr")
+    env_path = map_path(path)
+    replaced = os.path.lexists(env_path)
     write_exr(env_path, env.data)
     atomic_write(path, scene_text(export, env_path.name, env.data.shape[1], name))
-    warnings = list(export.warnings)
+    warnings = [f"mitsuba: replaced {env_path}, the map of the scene replaced"] if replaced else []
+    warnings += export.warnings
     if export.params["anisotropic"] >= ANISOTROPY_SAID:
         warnings.append(f"mitsuba: anisotropic = {export.params['anisotropic']:.3g} follows each shape's own tangents "
                         "(the sphere's dp/du), the lab's the projected X axis: anisotropic highlights on the sphere differ")

@@ -70,7 +70,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     (OpenEXR, savefig); when the block ends it is fsync'ed and renamed to `path`.
     On any error the temporary file is removed and the target is left as it was."""
     named = Path(path)
-    path = _write_target(named)
+    path = write_target(named)
     try:
         fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix, dir=path.parent)
     except OSError as e:
@@ -90,7 +90,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         raise
 
 
-def _write_target(path: Path) -> Path:
+def write_target(path: Path) -> Path:
     """The file a save to `path` replaces: the file a symbolic link leads to (so the link
     keeps working and the linked file is updated), never something that is not a regular file."""
     target = Path(os.path.realpath(path)) if os.path.islink(path) else path
