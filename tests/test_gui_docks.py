@@ -35,3 +35,22 @@ def test_a_floating_panel_double_clicked_docks_in_front_of_its_tabs(window, qtbo
     qtbot.wait(200)
     shot(window, f"docked_{name}")
     assert not dock.visibleRegion().isEmpty()  # before: docked as a hidden tab behind XML
+
+
+def test_a_run_stopped_with_its_document_is_not_said_in_another_documents_panel(window, qtbot, tmp_path):  # noqa: F811
+    from test_gui import open_and_wait
+    from test_gui_trust import _measured
+
+    first, second = _measured(tmp_path, "first", 0.2), _measured(tmp_path, "second", 0.4)
+    open_and_wait(qtbot, window, window.open_path, first)
+    window.fitting.fit_button.click()
+    qtbot.waitUntil(lambda: window._candidate is not None, timeout=30000)
+    said = []
+    window.statusBar().messageChanged.connect(said.append)
+    open_and_wait(qtbot, window, window.open_path, second)  # the fit of `first` is stopped
+    qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
+    assert any("first" in m and "was closed" in m for m in said)  # said once, naming its document
+    assert "closed" not in window.fitting.status.text()  # before: "Fit stopped (its document was closed)"
+    window.fitting.status.setText("Ngan error 0.1 after 9 iterations")  # the result of a run of `second`
+    open_and_wait(qtbot, window, window.open_path, first)
+    assert window.fitting.status.text() == ""  # before: kept under the next document

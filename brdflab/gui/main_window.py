@@ -549,6 +549,8 @@ class MainWindow(QMainWindow):
             self.fitting.status.setText("stopping the run of the closed document…")
         if workspace is not self.workspace:  # nothing of the closed document stays drawn
             self._fit_history, self._candidate = [], None
+            if self._thread is None:
+                self.fitting.status.setText("")  # nor said: its last run's result
         self.workspace = workspace
         self.locate_button.setVisible(workspace.data_missing)
         self._unsaved_at_clean = workspace.dirty
@@ -1223,8 +1225,9 @@ class MainWindow(QMainWindow):
         owner, self._fit_owner = self._fit_owner, None
         self._end_fit()
         if owner is not self.workspace:  # its document was closed: never store it in another
-            self.statusBar().showMessage(f"the running {what.lower()} was stopped: its document was closed", 10000)
-            self.fitting.status.setText(f"{what} stopped (its document was closed)")
+            self.statusBar().showMessage(f"the {what.lower()} of {owner.title.rstrip(' *')} was stopped: its document "
+                                         "was closed", 10000)
+            self.fitting.status.setText("")  # the panel tells of the shown document's runs only
             return None
         old = (tuple(self.workspace.document.fittings), self.workspace.shown_fit)
         new_list = list(old[0]) + [fitting]
