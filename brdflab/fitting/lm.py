@@ -56,6 +56,7 @@ U_LIMIT = 15.0
 MAX_STEP = 4.0
 # a parameter this close to a bound (fraction of its searched range) is reported on it
 SATURATED = 1e-6
+FIT_NAME = "fit"  # the name of every fit's material: it says nothing of what was fitted
 MAX_FIT_LOBES = 16  # lobes of one fit (per channel in Fixed materials): more is no model of a BRDF, and costs minutes
 
 
@@ -919,4 +920,4 @@ def material_from_lobes(names: list[str], combination: str, n_channels: int) -> 
             lobes.append(Lobe(model, params, [0.1] * n_channels))
         else:
             lobes.extend(Lobe(model, dict(params), [0.1], c) for c in range(n_channels))
-    return AnalyticMaterial("fit", combination, n_channels, lobes)
+    return AnalyticMaterial(FIT_NAME, combination, n_channels, lobes)

@@ -13,6 +13,7 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.samples import SampleSet
+from brdflab.geometry.vec import shared_half_vectors
 
 MAX_THETA = math.radians(80.0)
 NGAN_MAX_COS = math.cos(MAX_THETA)
@@ -44,9 +45,11 @@ def metric_errors(materials: list, samples: SampleSet, metric: str) -> list[floa
     for wi, wo, y, measure in samples.chunks():
         w = sample_weight(metric, wi, wo, measure)
         inside = w > 0.0
-        for k, material in enumerate(materials):
-            f = 0.0 if material is None else material.evaluate(wi[inside], wo[inside])
-            num[k] += float(np.einsum("n,n->", w[inside], ((f - y[inside]) ** 2).sum(axis=1)))
+        wi_in, wo_in, y_in, w_in = wi[inside], wo[inside], y[inside], w[inside]
+        with shared_half_vectors():
+            for k, material in enumerate(materials):
+                f = 0.0 if material is None else material.evaluate(wi_in, wo_in)
+                num[k] += float(np.einsum("n,n->", w_in, ((f - y_in) ** 2).sum(axis=1)))
         den += float(sample_weight(metric, wi, wo, measure, cosine=False).sum())
     return [math.sqrt(n / max(den * samples.n_channels, 1e-300)) for n in num]
 

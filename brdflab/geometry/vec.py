@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import threading
+from contextlib import contextmanager
+from typing import Iterator
+
 import numpy as np
 
 TINY = 1e-12
@@ -17,8 +21,31 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i->...", a, b)
 
 
+_shared = threading.local()
+
+
+@contextmanager
+def shared_half_vectors() -> Iterator[None]:
+    """Within this block `half_vector` of the same two arrays (by identity) is computed once
+    and returned read-only: the lobes of a material, and each perturbed copy of a lobe in a
+    fitting pass, evaluate the same chunk of directions one after another."""
+    outer = getattr(_shared, "on", False)
+    _shared.on, _shared.key, _shared.h = True, None, None
+    try:
+        yield
+    finally:
+        _shared.on, _shared.key, _shared.h = outer, None, None
+
+
 def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-    return normalize(wi + wo)
+    if not getattr(_shared, "on", False):
+        return normalize(wi + wo)
+    key = _shared.key
+    if key is None or key[0] is not wi or key[1] is not wo:
+        h = normalize(wi + wo)
+        h.flags.writeable = False
+        _shared.key, _shared.h = (wi, wo), h
+    return _shared.h
 
 
 def schlick(f0, cos_theta):
