@@ -54,3 +54,18 @@ def test_a_run_stopped_with_its_document_is_not_said_in_another_documents_panel(
     window.fitting.status.setText("Ngan error 0.1 after 9 iterations")  # the result of a run of `second`
     open_and_wait(qtbot, window, window.open_path, first)
     assert window.fitting.status.text() == ""  # before: kept under the next document
+
+
+def test_the_plots_never_show_the_previous_document_after_an_open(window, qtbot, tmp_path):  # noqa: F811
+    from test_gui import open_and_wait
+    from test_gui_trust import _measured
+
+    plots = window.plots
+    qtbot.waitUntil(lambda: plots.image.pixmap() is not None and not plots.image.pixmap().isNull(), timeout=60000)
+    measured = _measured(tmp_path, "measured", 0.3)
+    open_and_wait(qtbot, window, window.open_path, measured)
+    shot(plots, "plots_after_open")
+    assert plots.image.pixmap().isNull()  # before: the default material's plots, for 14–45 s
+    assert plots.image.text().startswith("plotting") and "measured.binary" in plots.image.text()
+    qtbot.waitUntil(lambda: not plots.image.pixmap().isNull(), timeout=120000)  # then the new document's
+    assert plots._last[0] is window.workspace.original()

@@ -551,6 +551,7 @@ class MainWindow(QMainWindow):
             self._fit_history, self._candidate = [], None
             if self._thread is None:
                 self.fitting.status.setText("")  # nor said: its last run's result
+            self.plots.new_document(workspace.title.rstrip(" *"))
         self.workspace = workspace
         self.locate_button.setVisible(workspace.data_missing)
         self._unsaved_at_clean = workspace.dirty

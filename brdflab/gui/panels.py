@@ -809,10 +809,20 @@ class PlotsPanel(QWidget):
         lay.setContentsMargins(0, 0, 0, 0)
         lay.addWidget(self.scroll, 1)
         lay.addWidget(self.status)
-        self._job = LatestOnly(draw_plots, self)
+        self._job = LatestOnly(draw_plots_of, self)
         self._job.done.connect(self._show)
         self._job.failed.connect(lambda m: self.status.setText(f"plots failed: {m}"))
         self._last: tuple | None = None
+        self._document = 0  # numbers the documents shown: plots of an earlier one are dropped
+
+    def new_document(self, title: str) -> None:
+        """Another document is shown: nothing of the last one stays drawn while its plots are
+        computed (a measured table's take 14–45 s; the old plots stayed up meanwhile, marked
+        only by a small grey "updating…")."""
+        self._document += 1
+        self.image.clear()
+        self.image.setText(f"plotting {title}…")
+        self.image.resize(self.scroll.viewport().size())
 
     def show_sources(self, original, fitted, theta_i_deg: float, history: list | None = None) -> None:
         """`history`: (iteration, error) of the running or last fit, for its convergence plot."""
@@ -833,15 +843,18 @@ class PlotsPanel(QWidget):
         height = max(120, room.height(), PLOT_ROW_HEIGHT * rows)
         size = (int(width * ratio), int(height * ratio))
         self.status.setText("updating…")
-        self._job.request((*self._last, size))
+        self._job.request((self._document, (*self._last, size)))
 
     def resizeEvent(self, event) -> None:
         super().resizeEvent(event)
         self._request()
 
-    def _show(self, rgba: np.ndarray) -> None:
+    def _show(self, result: tuple[int, np.ndarray]) -> None:
         from PySide6.QtGui import QImage, QPixmap
 
+        document, rgba = result
+        if document != self._document:
+            return  # the plots of a document no longer shown
         h, w = rgba.shape[:2]
         # copy into an image Qt owns (QImage over a Python bytes object broke None's refcount)
         img = QImage(w, h, QImage.Format_RGBA8888)
@@ -884,6 +897,12 @@ def draw_plots(request) -> np.ndarray:
     figure = plot_figure(request)
     figure.canvas.draw()
     return np.asarray(figure.canvas.buffer_rgba()).copy()
+
+
+def draw_plots_of(job: tuple) -> tuple:
+    """(document number, image) of draw_plots(request) for job = (document number, request)."""
+    document, request = job
+    return document, draw_plots(request)
 
 
 def plot_figure(request):
