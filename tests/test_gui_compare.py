@@ -76,3 +76,29 @@ def test_split_and_difference_show_the_fit_beside_the_original(window, qtbot, tm
     covered = np.abs(diff - [31, 31, 36]).max(axis=2) > 10  # not the flat background of a point light
     reds = (diff[..., 0] > 150) & (diff[..., 2] < 80)  # the heat ramp: large differences are red to white
     assert reds[covered].mean() > 0.05  # 0.11 measured: the dull fit misses the highlight
+
+
+def test_the_difference_view_waits_for_a_sample_set_instead_of_showing_noise(window, qtbot):  # noqa: F811
+    """Issue 37 §4: lit by a map, the difference of two images of a few samples each was
+    their noise (~33 % of the pixels red to white for the first ~10 s). A fit that differs
+    from the original by a few per cent must not look like that at any time."""
+    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.io.xmlio import Fitting
+
+    view, ws = window.object_view, window.workspace
+    close = ws.analytic.copy()
+    close.lobes[1].params["Exponent"] *= 1.05  # within a few per cent of the original
+    window.object_controls.mode.setCurrentText("fis")
+    window.object_controls.samples.setValue(4096)  # a first set that takes many steps
+    window.undo_stack.push(ReplaceFittings(window, ((), None), ((Fitting(close, 0.01),), 0), "fit"))
+    window.object_controls.shown.setCurrentText("difference")
+    qtbot.waitUntil(lambda: view.comparing and view._progressive_b is not None and view._progressive_b.samples >= 8
+                    and view.samples_done < 1024, timeout=60000)
+    qtbot.wait(100)
+    early = view_rgb(view).astype(int)
+    from test_gui_trust import shot
+
+    shot(view, "difference_early")
+    reds = (early[..., 0] > 150) & (early[..., 2] < 80)  # heat ≥ ~33 %: red to white
+    assert reds.mean() < 0.01, f"{reds.mean():.1%} of the view red: noise"  # before: a third of the object
+    assert view.difference_pending()[1] == 4096  # said over the view: what it waits for

@@ -414,6 +414,7 @@ class ObjectView(_GLView):
         self._progressive_b = None
         self._table_note: str | None = None  # what table_shown last said
         self._drawing_difference = False  # the frame issued is the difference view: it gets a legend
+        self._difference_pending: tuple[int, int] | None = None  # (samples, needed) while a difference is held back
         self._legend: tuple | None = None  # the legend on the frame shown (difference_legend)
         self._timer = QTimer(self)
         self._timer.setInterval(self.POLL_MS)
@@ -716,15 +717,45 @@ class ObjectView(_GLView):
         lit_by_map = image.settings.mode in ("fis", "sh", "prefiltered", "mis")
         other = self._progressive_b if self.comparing and self._progressive_b is not None else None
         self._drawing_difference = other is not None and self.compare == "difference"
+        self._difference_pending = None
+        compare = self.compare
+        if self._drawing_difference and min(image.samples, other.samples) < self._target_samples():
+            # two images of a few samples each differ by their noise (a third of the pixels
+            # 33 % or more for the first ~10 s): the original is shown until both hold a set
+            self._difference_pending = (min(image.samples, other.samples), self._target_samples())
+            other, compare = None, "off"
         self.display.draw(image, self.exposure, self.reinhard, gamma=self.gamma,
                           environment=self.renderer if lit_by_map else None, other=other,
-                          compare=self.compare, split=self.split)
+                          compare=compare, split=self.split)
 
     def decorate(self, frame: QImage) -> None:
         """A difference image gets its legend."""
         self._legend = None
-        if self._drawing_difference:
+        if self._difference_pending is not None:
+            self._paint_pending(frame, *self._difference_pending)
+        elif self._drawing_difference:
             self._paint_legend(frame)
+
+    def difference_pending(self) -> tuple[int, int] | None:
+        """(samples so far, samples needed) while the difference view shows the original,
+        waiting for both images to hold a full sample set; None otherwise."""
+        return self._difference_pending
+
+    def _paint_pending(self, frame: QImage, samples: int, needed: int) -> None:
+        """Over the original shown meanwhile: what the difference view waits for."""
+        painter = QPainter(frame)
+        try:
+            painter.setFont(self.font())
+            fm = painter.fontMetrics()
+            text = f"difference after {needed} samples: {samples} so far (the original meanwhile)"
+            height = round(frame.height() / frame.devicePixelRatio())
+            box = QRect(self.LEGEND_MARGIN, height - self.LEGEND_MARGIN - fm.height() - 12,
+                        fm.horizontalAdvance(text) + 12, fm.height() + 12)
+            painter.fillRect(box, QColor(0, 0, 0, 170))
+            painter.setPen(QColor(235, 235, 235))
+            painter.drawText(box.left() + 6, box.top() + 6 + fm.ascent(), text)
+        finally:
+            painter.end()
 
     def resizeGL(self, w: int, h: int) -> None:
         self._release(self._progressive, self._progressive_b)
