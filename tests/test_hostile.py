@@ -271,6 +271,36 @@ def build_corpus_of_issue_37(d: Path) -> None:
     shutil.copy(ROOT / "materials" / "principled_car_paint.xml", d / "paint.xml")  # exports without a fit
     (d / "paint_link.xml").symlink_to("paint.xml")
     (d / "own_env.exr").write_bytes(b"someone's own map")
+    # model files a material names: refused files say why, never "missing"
+    (d / "outside" / "minnaert.brdf").write_text(MINNAERT)
+    w = lambda name, text: (d / name).write_text(text, encoding="utf-8")  # noqa: E731
+    w("mat/model_outside_no_sum.xml", model_lobe("../outside/minnaert.brdf"))
+    w("mat/model_shadow_bad_sum.xml", model_lobe("../outside/shadow", "0" * 64))
+    os.mkfifo(d / "mat" / "fifo.brdf")
+    w("mat/model_fifo.xml", model_lobe("fifo.brdf"))
+    (d / "mat" / "dev.brdf").symlink_to("/dev/zero")
+    w("mat/model_device.xml", model_lobe("dev.brdf"))
+    (d / "mat" / "shadow_link.brdf").symlink_to(d / "outside" / "shadow")
+    w("mat/model_link_out.xml", model_lobe("shadow_link.brdf", "0" * 64))
+
+
+MINNAERT = """analytic
+::begin parameters
+float k 0 2 0.7
+color albedo 0.8 0.8 0.8
+::end parameters
+::begin shader
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return albedo / 3.14159265 * pow(max(dot(N, L) * dot(N, V), 1e-6), k - 1.0); }
+::end shader
+"""
+
+
+def model_lobe(path: str, checksum: str | None = None) -> str:
+    """A material of one lobe of the file model `minnaert` whose <ModelFile> names `path`."""
+    check = f' sha256="{checksum}"' if checksum else ""
+    return material('<ScalingFactors channel0="0.1" channel1="0.1" channel2="0.1"/>\n<Lobe><Model>minnaert</Model>'
+                    '<Type>Isotropic</Type><Parameters k="0.7" albedo_r="0.8" albedo_g="0.8" albedo_b="0.8"/>'
+                    f'<ModelFile path="{path}"{check}/></Lobe>')
 
 
 @dataclass
@@ -459,6 +489,19 @@ CASES: dict[str, Case] = {
                                   names="paint_table.xml", words=("named .binary",)),
     "export-map-over-a-file": Case(["export", "paint.xml", "--format", "mitsuba", "--out", "own.xml"],
                                    names="own_env.exr", words=("not the map of a scene being replaced",)),
+    # files a material names that are there but refused: the real reason, never "missing"; info as every command
+    "modelfile-outside-no-checksum": Case(["info", "mat/model_outside_no_sum.xml"], names="minnaert.brdf",
+                                          words=("no sha256", "folder policy")),
+    "modelfile-shadow-bad-checksum": Case(["info", "mat/model_shadow_bad_sum.xml"], names="shadow",
+                                          words=("does not match", "folder policy"), read=("outside/shadow",)),
+    "modelfile-fifo": Case(["info", "mat/model_fifo.xml"], names="fifo.brdf", words=("not a regular file", "fifo")),
+    "modelfile-device": Case(["info", "mat/model_device.xml"], names="dev.brdf",
+                             words=("not a regular file", "character device")),
+    "modelfile-link-out": Case(["info", "mat/model_link_out.xml"], names="shadow_link.brdf",
+                               words=("through a link", "folder policy"), read=("outside/shadow",)),
+    "names-shadow-info": Case(["info", "mat/names_shadow.xml", "--json"], names="shadow",
+                              words=("outside the material's folder", "folder policy"), leaks=SHADOW_DIMS),
+    "names-fifo-info": Case(["info", "names_fifo.xml"], names="fifo.slice", words=("not a regular file", "fifo")),
 }
 
 

@@ -133,3 +133,47 @@ def test_a_surface_refined_near_a_narrow_peak_finds_it_and_stays_closed():
     assert np.unique(edges, axis=0, return_counts=True)[1].max() == 2  # conforming: no cracks
     assert np.all(dirs[:, 2] > 0) and np.allclose(np.linalg.norm(dirs, axis=1), 1, atol=1e-6)
     assert surface.surface_error(ward, shape, 7)[0] > 0.3  # even level 7 misses it: refinement is needed
+
+
+def _lobe_pixels(img: np.ndarray) -> np.ndarray:
+    """Where the image shows the original's orange (shaded), not the axes' red, green, blue or yellow."""
+    rgb = img.astype(float)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return (r > 60) & (g > 0.35 * r) & (g < 0.85 * r) & (b < g)
+
+
+def test_a_lobe_narrower_than_a_pixel_is_a_solid_line_framed_at_every_level(viewer):
+    """Issue 37 §4: Ward ax = ay = 0.001 was a dotted line at subdivision 5 (a needle thinner
+    than a pixel, rasterised); with auto (level 7), the uniform surface drawn while its refined
+    one was computed, framed by level 5's vertices, ran off the top, then flipped back."""
+    from brdflab.geometry.lobe_surface import lobe_tips, refined_surface
+
+    viewer = LobeViewer(viewer.ctx)  # the default camera and settings, whatever earlier tests set
+    needle = AnalyticMaterial("n", "Linear", 3, [Lobe.create("Lambertian", [0.3] * 3),
+                                                 Lobe.create("Ward", [0.5] * 3, ax=0.001, ay=0.001)])
+    viewer.set_original(needle)
+    viewer.settings.level = 5
+    shape, sources = viewer.settings.shape, viewer.analytic_sources()
+    dirs, faces, peak = refined_surface(sources, shape, 5)
+    viewer.set_refined(viewer.surface_key(), dirs, faces, peak, lobe_tips(sources, shape, dirs))
+    size = 400
+    img = viewer.render(size, size)
+    lobe = _lobe_pixels(img)
+    # the needle's axis on screen: every point along it is the lobe's colour (within a pixel)
+    tip = lobe_tips(sources, shape, dirs)[0] * viewer.gain()
+    clip = viewer.view_projection(size, size) @ np.array([[0, 0, 0, 1], [*tip, 1]], float).T
+    ends = (clip[:2] / clip[3]).T
+    cols = (ends[:, 0] + 1) / 2 * size
+    rows = (1 - ends[:, 1]) / 2 * size
+    t = np.linspace(0.2, 0.9, 200)
+    c, r = np.round(cols[0] + t * (cols[1] - cols[0])).astype(int), np.round(rows[0] + t * (rows[1] - rows[0])).astype(int)
+    assert abs(c[-1] - c[0]) < abs(r[-1] - r[0])  # steep on screen: a pixel per row when solid
+    near = lobe | np.roll(lobe, 1, axis=1) | np.roll(lobe, -1, axis=1)  # within a pixel sideways
+    solid = near[r, c].mean()
+    assert solid > 0.97, f"{solid:.0%} of the needle drawn"  # before: a dotted line
+    gain = viewer.gain()
+    viewer.settings.level = 7  # auto's level: drawn uniform until its own refined surface comes
+    assert viewer.gain() == pytest.approx(gain)  # before: 54× larger (1.49 against 0.028)
+    img = viewer.render(size, size)
+    border = np.concatenate([_lobe_pixels(img)[0], _lobe_pixels(img)[:, 0], _lobe_pixels(img)[:, -1]])
+    assert not border.any()  # before: a stub running off the top

@@ -91,6 +91,32 @@ def test_a_fit_with_a_file_lobe_saves_its_file_and_reopens_elsewhere(tmp_path):
     assert "'walter' from models/walter.brdf is not available" in done.stderr and "Traceback" not in done.stderr
 
 
+def test_a_fit_saved_in_another_folder_uses_its_edited_model_file_and_says_so(tmp_path):
+    """The documented workflow: `fit SLICE --lobes Lambertian,models/minnaert.brdf --out
+    saved/fit.xml`, then an edit of the model file. The fit names ../models/minnaert.brdf (outside
+    its folder) with the sha256 it was saved with; every command said "its model file is
+    missing". Now each uses the edited file and says it changed since the save."""
+    (tmp_path / "models").mkdir()
+    (tmp_path / "saved").mkdir()
+    model = tmp_path / "models" / "minnaert.brdf"
+    model.write_text("analytic\n::begin parameters\nfloat k 0 2 0.7\ncolor albedo 0.8 0.8 0.8\n::end parameters\n"
+                     "::begin shader\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {\n"
+                     "    return albedo / 3.14159265 * pow(max(dot(N, L) * dot(N, V), 1e-6), k - 1.0);\n}\n"
+                     "::end shader\n")
+    done = brdflab("fit", SLICE, "--lobes", "Lambertian,models/minnaert.brdf", "--samples", "subset", "--size", "500",
+                   "--max-iterations", "5", "--out", "saved/fit.xml", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert etree.parse(str(tmp_path / "saved" / "fit.xml")).find(".//ModelFile").get("path") == "../models/minnaert.brdf"
+    model.write_text(model.read_text().replace("float k 0 2 0.7", "float k 0 2 0.9"))
+    info = brdflab("info", "saved/fit.xml", "--json", cwd=tmp_path)
+    assert info.returncode == 0, info.stderr
+    assert "is not the one the material was saved with" in info.stderr and "missing" not in info.stderr
+    lobes = json.loads(info.stdout.splitlines()[-1])["fittings"][0]["material"]["lobes"]
+    assert [l["model"] for l in lobes] == ["Lambertian", "minnaert"]
+    render = brdflab("render", "saved/fit.xml", "--fitting", 0, "--size", "8,8", "--out", "r.png", cwd=tmp_path)
+    assert render.returncode == 0 and "is not the one the material was saved with" in render.stderr, render.stderr
+
+
 def test_auto_and_batch_climb_and_fit_with_file_models(tmp_path):
     done = brdflab("fit", SLICE, "--auto", "--models", f"CookTorranceGGX,{EXPLORER / 'walter.brdf'}", "--size", "2000",
                    "--max-iterations", "30", "--json")

@@ -149,6 +149,15 @@ def refined_surface(sources, shape: LobeShape, level: int, tolerance: float = 0.
     return dirs.astype(np.float32), faces.astype(np.uint32), float(radii.max())
 
 
+def lobe_tips(sources, shape: LobeShape, dirs: np.ndarray) -> np.ndarray:
+    """(sources, 3): each source's farthest surface point over the vertices `dirs`, before the
+    viewer's gain. A lobe narrower than a pixel (Ward ax = 0.001) rasterises as a dotted line;
+    the viewer draws the segment from the origin to its tip as a solid one."""
+    radii = _radii(sources, shape, np.asarray(dirs, float))
+    k = radii.argmax(axis=0)
+    return np.asarray(dirs, float)[k] * radii[k, np.arange(radii.shape[1])][:, None]
+
+
 def _split_faces(faces: np.ndarray, mids: np.ndarray, count: np.ndarray) -> np.ndarray:
     """Faces with three split edges in four, with one in two, the rest kept. `mids`: (3, T)
     new vertex of edges 01, 12, 20 (-1: not split)."""

@@ -358,12 +358,13 @@ def auto_level_job(job: tuple) -> tuple[int, float]:
 
 
 def refine_job(job: tuple) -> tuple:
-    """(key, sources, shape, level) → (key, *geometry.lobe_surface.refined_surface) — run in a
-    worker process."""
-    from brdflab.geometry.lobe_surface import refined_surface
+    """(key, sources, shape, level) → (key, *geometry.lobe_surface.refined_surface, the
+    sources' tips on it) — run in a worker process."""
+    from brdflab.geometry.lobe_surface import lobe_tips, refined_surface
 
     key, sources, shape, level = job
-    return (key, *refined_surface(sources, shape, level, AUTO_LEVEL_TOLERANCE))
+    dirs, faces, peak = refined_surface(sources, shape, level, AUTO_LEVEL_TOLERANCE)
+    return key, dirs, faces, peak, lobe_tips(sources, shape, dirs)
 
 
 def _side_by_side(*widgets: QWidget) -> QHBoxLayout:

@@ -115,6 +115,22 @@ def file_sha256(path: str | os.PathLike, limit: int) -> str | None:
     return h.hexdigest()
 
 
+def outside_problem(path: str | os.PathLike, folder: str | os.PathLike, sha256: str | None, limit: int,
+                    what: str) -> str | None:
+    """Why the folder policy (docs/hostile-input.md) refuses a file that a material names, or
+    None: a file in the material's `folder` or below (links and `..` resolved) is opened, one
+    elsewhere only when it matches the sha256 the material records (the lab records one
+    whenever it saves such a reference). The reason says which rule failed and how."""
+    if within(path, folder):
+        return None
+    if sha256 and file_sha256(path, limit) == sha256.strip().lower():
+        return None
+    lexical = Path(os.path.abspath(path)).is_relative_to(Path(os.path.abspath(folder)))
+    where = "leads outside the material's folder through a link" if lexical else "lies outside the material's folder"
+    why = "does not match the sha256 the material records" if sha256 else "the material records no sha256 for it"
+    return f"the {what} {where} and {why}: refused by the folder policy (copy it next to the material)"
+
+
 def within(path: str | os.PathLike, folder: str | os.PathLike) -> bool:
     """Whether `path` lies in `folder` or below once links and `..` are resolved."""
     try:

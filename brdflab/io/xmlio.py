@@ -21,7 +21,7 @@ from lxml import etree
 
 from brdflab.errors import BRDFLabError
 from brdflab.io.atomic import atomic_write
-from brdflab.io.bounded import MAX_DATA_BYTES, file_sha256, read_bounded, within
+from brdflab.io.bounded import MAX_DATA_BYTES, file_sha256, outside_problem, read_bounded
 from brdflab.io.numbers import ascii_integer, ascii_number
 from brdflab.io.xml_source import SourceXML, codec_of
 from brdflab.material.analytic import MAX_CHANNELS, MAX_LOBES, AnalyticMaterial, Lobe, SourceLinked
@@ -63,16 +63,11 @@ class MeasuredReference(SourceLinked):
 
     def confinement_problem(self) -> str | None:
         """Why the data file may not be opened, or None (the data-file policy of
-        docs/hostile-input.md): a file outside the material's folder (after links) is opened
-        only when the material records its sha256 and the file matches it, as in the lab's own
-        saves; a hand-made `../../etc/shadow` is refused before a byte of it is interpreted."""
-        if self.missing or within(self.path, self.base_dir or Path(".")):
+        docs/hostile-input.md, `outside_problem`): a hand-made `../../etc/shadow` is refused
+        before a byte of it is interpreted; a file that is not there is no problem here."""
+        if not os.path.exists(self.path):  # False, not an error, for a name too long for the system
             return None
-        if self.sha256 and self.current_sha256() == self.sha256.strip().lower():
-            return None
-        return ("the data file named in the material lies outside the material's folder and the "
-                "material records no matching sha256 checksum for it: refused (copy the file next to the "
-                "material, or open it directly)")
+        return outside_problem(self.path, self.base_dir or Path("."), self.sha256, MAX_DATA_BYTES, "data file")
 
     def checksum_problem(self) -> str | None:
         """A warning when the data file no longer matches the checksum the material records."""

@@ -71,7 +71,7 @@ class LobeViewer:
         self.labels = ["original", "fit"]  # what the legend calls the two layers
         self._mesh_level = None  # what the buffers hold: a level, or a refined surface's key
         self._vbo = self._ibo = None
-        self._refined: tuple | None = None  # (key, directions, faces, peak) from refined_surface
+        self._refined: tuple | None = None  # (key, directions, faces, peak, tips) from refined_surface
         self._lines = self.ctx.program(vertex_shader=GLSL_VERSION + "#define VERTEX\n" + shader_source("lines.glsl"),
                                        fragment_shader=GLSL_VERSION + shader_source("lines.glsl"))
         self._line_vbo = self.ctx.buffer(reserve=12 * 6 * 4)
@@ -153,10 +153,12 @@ class LobeViewer:
     def analytic_sources(self) -> list[AnalyticMaterial]:
         return [l.source for l in self._layers if l is not None and isinstance(l.source, AnalyticMaterial)]
 
-    def set_refined(self, key: tuple, directions: np.ndarray, faces: np.ndarray, peak: float) -> None:
+    def set_refined(self, key: tuple, directions: np.ndarray, faces: np.ndarray, peak: float,
+                    tips: np.ndarray) -> None:
         """A surface refined near the lobes' peaks (geometry.lobe_surface.refined_surface), drawn
-        while `key` is what is drawn; the uniform hemisphere otherwise."""
-        self._refined = (key, directions, faces, peak)
+        while `key` is what is drawn; the uniform hemisphere otherwise. `tips`: each analytic
+        layer's farthest point on it (geometry.lobe_surface.lobe_tips), its axis drawn as a line."""
+        self._refined = (key, directions, faces, peak, np.asarray(tips, np.float32))
 
     def refined_in_use(self) -> bool:
         return self._refined is not None and self._refined[0] == self.surface_key()
@@ -191,7 +193,7 @@ class LobeViewer:
         self.ctx.disable_direct(0x0BE2)  # GL_BLEND
         self.ctx.depth_func = "<"
         self.ctx.fbo.depth_mask = True
-        self._draw_lines(vp)
+        self._draw_lines(vp, self._tip_lines())
         for index, layer in enumerate(self._layers):
             if layer is None:
                 continue
@@ -268,7 +270,10 @@ class LobeViewer:
                     r = lobe_radii(layer.source, self.settings.shape, geodesic_hemisphere(key[1])[0].astype(float))
                     layer.peak = (key, float(np.nanmax(r)) if r.size else 0.0)
                 peak = max(peak, layer.peak[1])
-        if self.refined_in_use():  # a peak between the hemisphere's vertices: framed whole
+        if self._refined_for_lobes() is not None:
+            # a peak between the hemisphere's vertices: framed whole, at every level of the same
+            # lobes (the uniform level 7 drawn while its refined surface was computed, framed by
+            # level 5's vertices, ran off the top, then flipped back)
             peak = max(peak, self._refined[3])
         return 1.0 / peak if peak > 0 else 1.0
 
@@ -276,15 +281,34 @@ class LobeViewer:
         """The camera position in the lobe's frame (z up on screen)."""
         return _Z_UP[:3, :3].T @ self.camera.position
 
-    def _draw_lines(self, vp: np.ndarray) -> None:
+    def _refined_for_lobes(self) -> tuple | None:
+        """The refined surface of the lobes and shape drawn, at this level or another (its peak
+        and tips hold at any level): None when it was computed for something else."""
+        return self._refined if self._refined is not None and self._refined[0][:2] == self.surface_key()[:2] else None
+
+    def _tip_lines(self) -> np.ndarray:
+        """(2k, 6) segments from the origin to each analytic layer's tip on the refined surface,
+        in its colour: a lobe narrower than a pixel is a solid line, not a dotted one."""
+        if self._refined_for_lobes() is None:
+            return np.zeros((0, 6), np.float32)
+        analytic = [k for k, layer in enumerate(self._layers)
+                    if layer is not None and isinstance(layer.source, AnalyticMaterial)]
+        gain, rows = self.gain(), []
+        for k, tip in zip(analytic, self._refined[4]):
+            color = self.layer_style(k)[0]
+            rows += [[0.0, 0.0, 0.0, *color], [*(gain * tip), *color]]
+        return np.array(rows, np.float32).reshape(-1, 6)
+
+    def _draw_lines(self, vp: np.ndarray, extra: np.ndarray) -> None:
+        """The axes, the incident direction and `extra` segments ((2k, 6) position, colour)."""
         wi = self.settings.wi
         axis = 1.2
-        lines = np.array([
+        lines = np.vstack([np.array([
             [0, 0, 0, 0.9, 0.2, 0.2], [axis, 0, 0, 0.9, 0.2, 0.2],
             [0, 0, 0, 0.2, 0.8, 0.2], [0, axis, 0, 0.2, 0.8, 0.2],
             [0, 0, 0, 0.3, 0.4, 1.0], [0, 0, axis, 0.3, 0.4, 1.0],
             [0, 0, 0, 1.0, 1.0, 0.2], [*(1.5 * wi), 1.0, 1.0, 0.2],
-        ], np.float32)
+        ], np.float32), extra]).astype(np.float32)
         self._line_vbo.orphan(lines.nbytes)
         self._line_vbo.write(lines.tobytes())
         self._lines["u_view_projection"].write(gl_matrix(vp))

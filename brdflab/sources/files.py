@@ -14,6 +14,7 @@ import numpy as np
 
 from brdflab.material.albedo import check_cost, energy_check
 from brdflab.errors import BRDFLabError
+from brdflab.io.bounded import kind_problem
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.sources.measured import read_measured
 from brdflab.io.xmlio import BRDFDocument, MeasuredReference, SimulatedReference, load
@@ -35,9 +36,7 @@ def resolve_measured(ref: MeasuredReference, warn: Warn | None = None):
     checksum the material records."""
     if not os.path.exists(ref.path):  # False, not an error, for a name too long for the system
         raise BRDFLabError("the measured data file named in the material is missing", ref.path)
-    refused = ref.confinement_problem()
-    if refused:
-        raise BRDFLabError(refused, ref.path)
+    check_openable(ref)
     table = read_measured(ref.path, ref.type)
     problem = ref.checksum_problem()
     if problem and warn is not None:
@@ -45,11 +44,22 @@ def resolve_measured(ref: MeasuredReference, warn: Warn | None = None):
     return table
 
 
+def check_openable(ref: MeasuredReference) -> None:
+    """Raise, naming the data file, what every command (`info` too) says of one that is there
+    but may not be opened: not a regular file, or refused by the folder policy."""
+    try:
+        problem = kind_problem(os.stat(ref.path).st_mode) or ref.confinement_problem()
+    except OSError:  # not there (a name too long for the system): the caller says it is missing
+        return
+    if problem:
+        raise BRDFLabError(problem, ref.path)
+
+
 def is_model_file(path: Path) -> bool:
     """A BRDF Explorer `.brdf` or a BRDFLab model descriptor: a model, not a material."""
-    from brdflab.models.files.library import is_descriptor
+    from brdflab.models.files.library import is_model_path
 
-    return path.suffix.lower() == ".brdf" or (is_xml(path) and path.is_file() and is_descriptor(path))
+    return is_model_path(path)
 
 
 def model_file_material(path: Path) -> AnalyticMaterial:
@@ -116,6 +126,8 @@ def describe_file(path: Path) -> dict:
     if not is_xml(path):
         return {"file": str(path), "material": read_measured(path).describe()}
     doc: BRDFDocument = load(path)
+    if isinstance(doc.material, MeasuredReference):
+        check_openable(doc.material)  # as the other commands do, before a byte of it is hashed
     info = doc.describe()
     budget = EnergyBudget(ENERGY_CHECK_BUDGET)
     if isinstance(doc.material, AnalyticMaterial):

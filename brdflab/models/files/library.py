@@ -19,7 +19,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.io.bounded import file_sha256, within
+from brdflab.io.bounded import kind_problem, outside_problem
 from brdflab.io.resources import MODELS_ENV
 from brdflab.models.files import SUFFIXES, is_model_file, read_model_bytes, read_model_file
 from brdflab.models.files.limits import MAX_MODEL_BYTES
@@ -150,25 +150,51 @@ class MissingModelFile(BRDFLabError):
 
 def resolve_reference(model_name: str, path_text: str | None, sha256: str | None, base_dir: Path | None) -> FileModel:
     """The file model a material's lobe names: by its recorded path (relative to the
-    material's folder), else a registered model of that name and checksum. BRDFLabError that
-    says what is missing and how to supply it."""
+    material's folder) where `reference_problem` allows it, else a registered model of that
+    name and checksum. BRDFLabError that says why not: the file is missing (MissingModelFile,
+    with how to supply it), is not a regular file, or is refused by the folder policy."""
+    refused = None
     if path_text:
         p = Path(path_text)
         candidate = p if p.is_absolute() or base_dir is None else base_dir / p
-        # a file outside the material's folder only when it is the one recorded (docs/hostile-input.md)
-        if os.path.isfile(candidate) and (within(candidate, base_dir or Path(".")) or (
-                sha256 and file_sha256(candidate, MAX_MODEL_BYTES) == sha256)):
-            model = load_model_file(candidate)
-            if model.xml_name != model_name:
-                raise BRDFLabError(f"the model file defines {model.xml_name!r}, not {model_name!r}", candidate)
-            return model
+        if os.path.exists(candidate):  # False, not an error, for a name too long for the system
+            refused = reference_problem(candidate, base_dir or Path("."), sha256)
+            if refused is None:
+                model = load_model_file(candidate)
+                if model.xml_name != model_name:
+                    raise BRDFLabError(f"the model file defines {model.xml_name!r}, not {model_name!r}", candidate)
+                return model
     found = find_file_model(model_name, sha256) or find_file_model(model_name)
     if found is not None:
         return found  # the reader warns when its checksum is not the one recorded
+    if refused is not None:
+        raise BRDFLabError(refused, candidate)
     where = f" from {path_text}" if path_text else ""
     raise MissingModelFile(f"the lobe model {model_name!r}{where} is not available: its model file is missing "
                            f"(put it back, or add its folder with --models DIR or {MODELS_ENV})",
                            model_name=model_name, recorded=path_text)
+
+
+def reference_problem(path: Path, folder: Path, sha256: str | None) -> str | None:
+    """Why a model file that a material names, and that is there, may not be opened, or None:
+    not a regular file, or refused by the folder policy (`outside_problem`). One exception: a
+    model file elsewhere, by its name and root element, whose reference the lab saved (a
+    sha256 is recorded) and that was edited since is used, and the reader says it changed:
+    `fit --lobes models/x.brdf --out saved/fit.xml`, then an edit of x.brdf."""
+    kind = kind_problem(os.stat(path).st_mode)
+    if kind:
+        return kind
+    problem = outside_problem(path, folder, sha256, MAX_MODEL_BYTES, "model file")
+    if problem and sha256 and is_model_path(Path(path).resolve()):
+        return None  # edited since the save: used, and the reader says so
+    return problem
+
+
+def is_model_path(path: Path) -> bool:
+    """Whether a file is a model rather than a material or data: a `.brdf`, or a regular `.xml`
+    file whose root element is <AnalyticBRDFModel>."""
+    suffix = path.suffix.lower()
+    return suffix == ".brdf" or (suffix == ".xml" and path.is_file() and is_descriptor(path))
 
 
 def rebuild(path: str, sha256: str, name: str) -> FileModel:
