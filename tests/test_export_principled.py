@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from khronos import assert_valid_gltf
+
 from brdflab.io import xmlio
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models.principled import specular_eta
@@ -129,6 +131,7 @@ def test_gltf_export_loads_back_with_the_parameters_written(tmp_path, suffix):
     assert material.extensions["KHR_materials_ior"]["ior"] == pytest.approx(float(specular_eta(0.3)))
     assert "KHR_materials_sheen" in material.extensions and "KHR_materials_sheen" in doc.extensionsUsed
     assert "KHR_materials_clearcoat" not in material.extensions  # no coat: the extension does not apply
+    assert_valid_gltf(out)
     mesh = trimesh.load(str(out), force="mesh")  # another reader opens the sphere
     assert len(mesh.faces) > 1000
     assert np.allclose(np.linalg.norm(mesh.vertices, axis=1), 1.0, atol=1e-5)
@@ -177,3 +180,133 @@ def test_the_mitsuba_scene_says_what_it_changed_and_only_that(tmp_path):
     warnings = export_mitsuba(PrincipledExport(params, exact=True), tmp_path / "s.xml", constant(1.0), "gold")
     assert len(warnings) == 1 and f"written as {MIN_SPECULAR:g}" in warnings[0]
     assert f'name="specular" value="{MIN_SPECULAR:g}"' in (tmp_path / "s.xml").read_text()
+
+
+def mtlx_shaders(path: Path) -> dict[str, dict]:
+    """The surface shaders of a MaterialX file by category: each node's name and its inputs'
+    values (colours as tuples)."""
+    import MaterialX as mx
+
+    doc = mx.createDocument()
+    mx.readFromXmlFile(doc, str(path))
+    value = lambda inp: tuple(inp.getValue()[i] for i in range(3)) if inp.getType() == "color3" else inp.getValue()
+    return {node.getCategory(): {"name": node.getName(), **{inp.getName(): value(inp) for inp in node.getInputs()}}
+            for node in doc.getNodes() if node.getType() == "surfaceshader"}
+
+
+def exported(tmp_path: Path, material: AnalyticMaterial, fmt: str, suffix: str) -> tuple[Path, str]:
+    """`material` saved and exported through the command line: the export and its stderr."""
+    source, out = tmp_path / f"{material.name}.xml", tmp_path / f"{material.name}{suffix}"
+    xmlio.save(xmlio.BRDFDocument(material), source)
+    r = brdflab("export", str(source), "--format", fmt, "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    return out, r.stderr
+
+
+@pytest.mark.parametrize("name", ["alum-bronze", "gold-metallic-paint3", "white-fabric", "blue-fabric"])
+def test_gltf_exports_of_real_fits_pass_the_khronos_validator(tmp_path, name):
+    """sheen × its tint reached 1.6 (alum-bronze) and 1.13 (gold-metallic-paint3): a
+    sheenColorFactor above 1, which the Khronos validator refuses. Now the sheen is written
+    within range, hue kept, and what that costs is said."""
+    import pygltflib
+
+    out = tmp_path / f"{name}.glb"
+    r = brdflab("export", str(FITS / f"{name}.xml"), "--format", "gltf", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert_valid_gltf(out)
+    sheen = pygltflib.GLTF2().load(str(out)).materials[0].extensions.get("KHR_materials_sheen")
+    if name in ("alum-bronze", "gold-metallic-paint3"):
+        assert max(sheen["sheenColorFactor"]) == pytest.approx(1.0)
+        assert "gltf: the sheen's colour (sheen × its tint) reaches" in r.stderr and "hue kept: Ngan" in r.stderr
+
+
+def test_gltf_carries_disneys_anisotropy(tmp_path):
+    """KHR_materials_anisotropy exists and was not used ("anisotropic not carried"). glTF's
+    αb = roughness², αt = mix(αb, 1, strength²) must be Disney's αy, αx, along the sphere's
+    tangents (the lab's frame), and the file must pass the Khronos validator."""
+    import pygltflib
+
+    from brdflab.models.principled import alphas
+
+    out, stderr = exported(tmp_path, principled("brushed", metallic=1.0, roughness=0.5, anisotropic=0.84), "gltf", ".gltf")
+    assert "anisotropic" not in stderr
+    assert_valid_gltf(out)
+    doc = pygltflib.GLTF2().load(str(out))
+    material = doc.materials[0]
+    aniso = material.extensions["KHR_materials_anisotropy"]
+    assert "KHR_materials_anisotropy" in doc.extensionsUsed and aniso["anisotropyRotation"] == 0.0
+    ab = material.pbrMetallicRoughness.roughnessFactor ** 2
+    at = ab + aniso["anisotropyStrength"] ** 2 * (1.0 - ab)
+    ax, ay = alphas(0.5, 0.84)
+    assert (at, ab) == pytest.approx((float(ax), float(ay)), rel=1e-9)
+    assert doc.meshes[0].primitives[0].attributes.TANGENT is not None
+
+
+def test_materialx_anisotropy_has_disneys_aspect(tmp_path):
+    """Standard Surface's aspect is √(1 − a) (mx_roughness_anisotropy), Disney's √(1 − 0.9 a):
+    `anisotropic` 0.84 written as is gave αx / αy = 6.3 where Disney has 4.1. OpenPBR's
+    αx = r² √(2 / (1 + (1 − a)²)), αy = (1 − a) αx (NG_open_pbr_anisotropy) must give both αs."""
+    from brdflab.models.principled import alphas
+
+    out, _ = exported(tmp_path, principled("brushed", metallic=1.0, roughness=0.5, anisotropic=0.84), "mtlx", ".mtlx")
+    shaders = mtlx_shaders(out)
+    ax, ay = (float(v) for v in alphas(0.5, 0.84))
+    std = shaders["standard_surface"]
+    r2, a = std["specular_roughness"] ** 2, std["specular_anisotropy"]
+    assert (r2 / np.sqrt(1.0 - a), r2 * np.sqrt(1.0 - a)) == pytest.approx((ax, ay), rel=1e-5)  # MaterialX writes 6 digits
+    assert ax / ay == pytest.approx(4.1, abs=0.05)
+    opr = shaders["open_pbr_surface"]
+    r2, a = opr["specular_roughness"] ** 2, opr["specular_roughness_anisotropy"]
+    x = r2 * np.sqrt(2.0 / (1.0 + (1.0 - a) ** 2))
+    assert (x, (1.0 - a) * x) == pytest.approx((ax, ay), rel=1e-5)  # MaterialX writes 6 digits
+
+
+def test_materialx_colours_stay_in_range_and_the_sheen_is_said(tmp_path):
+    """blue-fabric's specular tint and sheen tint reach 2.25 and 7.6 in blue: every colour was
+    written as is, above Standard Surface's and OpenPBR's 0–1. Now each colour's brightest
+    channel is at most 1: the specular colour's excess goes into the IOR (the same reflectance
+    at normal incidence per channel), the sheen's into its weight. The sheen, another lobe
+    there, is said as the clear coat is."""
+    from brdflab.export.principled import PrincipledExport
+
+    out = tmp_path / "blue-fabric.mtlx"
+    r = brdflab("export", str(FITS / "blue-fabric.xml"), "--format", "mtlx", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "mtlx: the sheen is carried approximately" in r.stderr
+    p = xmlio.load(FITS / "blue-fabric.xml").material.lobes[0].params
+    export = PrincipledExport(p, exact=True)
+    shaders = mtlx_shaders(out)
+    colours = {(c, k): v for c, inputs in shaders.items() for k, v in inputs.items() if isinstance(v, tuple)}
+    assert len(colours) == 6 and all(0.0 <= min(v) and max(v) <= 1.0 + 1e-6 for v in colours.values()), colours
+    std = shaders["standard_surface"]
+    eta = std["specular_IOR"]
+    f0 = ((eta - 1.0) / (eta + 1.0)) ** 2 * np.array(std["specular_color"])
+    r0 = ((specular_eta(p["specular"]) - 1.0) / (specular_eta(p["specular"]) + 1.0)) ** 2
+    assert f0 == pytest.approx(r0 * export.tinted("specular_tint"), rel=1e-5)
+    sheen = std["sheen"] * np.array(std["sheen_color"])
+    assert sheen == pytest.approx(p["sheen"] * export.tinted("sheen_tint"), rel=1e-5)  # 0.101 × 1: nothing lost
+
+
+def test_an_exported_fit_is_named_after_its_source(tmp_path):
+    """A stored fit's material is "fit" (the fitter's name for every fit): the MaterialX nodes
+    were fit_standard_surface; now they are named after the file the fit came from."""
+    fit = xmlio.load(FITS / "nickel.xml").material.copy()
+    fit.name = "fit"
+    source = tmp_path / "nickel_fits.xml"
+    xmlio.save(xmlio.BRDFDocument(ANALYTIC["gold"](), fittings=[xmlio.Fitting(fit)]), source)
+    out = tmp_path / "exported.mtlx"
+    r = brdflab("export", str(source), "--fitting", "0", "--format", "mtlx", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert set(mtlx_shaders(out)) == {"standard_surface", "open_pbr_surface"}
+    assert {shader["name"] for shader in mtlx_shaders(out).values()} == {
+        "nickel_fits_standard_surface", "nickel_fits_open_pbr_surface"}
+
+
+@pytest.mark.parametrize("fmt, suffix", [("gltf", ".gltf"), ("mtlx", ".mtlx")])
+def test_what_costs_nothing_is_not_said(tmp_path, fmt, suffix):
+    """A metal has no diffuse to flatten: "subsurface not carried: Ngan 0 (0.0 %)" said a loss
+    of nothing. A loss is said only where it is at least 0.05 % of the material."""
+    out, stderr = exported(tmp_path, principled("steel", metallic=1.0, roughness=0.3, subsurface=0.5), fmt, suffix)
+    assert stderr == "", stderr
+    _, stderr = exported(tmp_path, principled("plaster", roughness=0.8, subsurface=0.5), fmt, suffix)
+    assert "subsurface" in stderr and "(0.0 %" not in stderr

@@ -1,11 +1,16 @@
 """A MaterialX document (`.mtlx`) with the material as Autodesk Standard Surface and OpenPBR.
 
 Principled → Standard Surface / OpenPBR (both GGX with α = roughness², as principled):
-base colour, metalness, roughness, anisotropy, the specular IOR η(specular), the specular
-tint as a specular colour, sheen as sheen / fuzz. Carried approximately: the clear coat (a
-GTR1 lobe in principled, a full GGX layer of IOR 1.5 there: weight clearcoat / 4, roughness
-√α). Not carried: `subsurface` (principled's flatness; both models' subsurface is volumetric):
-the export says what dropping it costs. The document passes MaterialX's own `validate()`.
+base colour, metalness, roughness, the specular IOR η(specular), the specular tint as a
+specular colour, anisotropy as the same αx, αy (docs/principled.md: Standard Surface's aspect
+is √(1 − a), Disney's √(1 − 0.9 a), so it gets 0.9 a; OpenPBR's αx = r² √(2 / (1 + (1 − a)²)),
+αy = (1 − a) αx, so it gets 0.9 a and a roughness that keeps αx αy). Every colour is within its
+0–1: a specular colour above 1 is scaled to 1 and its IOR raised to keep the reflectance at
+normal incidence; the sheen is kept within range as for glTF (its cost said). Carried
+approximately: the clear coat (a GTR1 lobe in principled, a full GGX layer of IOR 1.5 there:
+weight clearcoat / 4, roughness √α) and the sheen (Disney's Schlick sheen, there a microfibre
+lobe). Not carried: `subsurface` (principled's flatness; both models' subsurface is
+volumetric). The export says what each costs. The document passes MaterialX's own `validate()`.
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ import re
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.export.principled import PrincipledExport, dropped_error
+from brdflab.export.principled import DISNEY_ANISOTROPY, PrincipledExport, loss_warnings, sheen_range_warnings
 from brdflab.models.principled import clearcoat_alpha
 
 
@@ -25,22 +30,35 @@ def _colour(values) -> object:
     return mx.Color3(*(float(v) for v in values))
 
 
+def open_pbr_roughness(export: PrincipledExport) -> float:
+    """OpenPBR's specular_roughness for Disney's αx, αy at anisotropy 0.9 a: OpenPBR's
+    αx αy = r⁴ · 2s / (1 + s²) (s = 1 − 0.9 a) where Disney's is r⁴, so r (1 + s²)^¼ / (2s)^¼,
+    at most 1 (reached only by rough, strongly anisotropic lobes: roughness > 0.67 at a = 1)."""
+    s = export.aspect()
+    return float(min(1.0, export.params["roughness"] * ((1.0 + s * s) / (2.0 * s)) ** 0.25))
+
+
 def surface_inputs(export: PrincipledExport) -> dict[str, dict[str, object]]:
     """Input values of each node, by node category."""
     p = export.params
     colour = np.array(export.base_color)
-    specular_colour, sheen_colour, eta = export.tinted("specular_tint"), export.tinted("sheen_tint"), export.eta
+    tinted = export.tinted("specular_tint")
+    brightest = max(1.0, float(tinted.max()))  # a tinted F0 above 1 × the IOR's goes into the IOR
+    specular_colour, eta = tinted / brightest, export.ior(brightest)
+    sheen_tint = export.tinted("sheen_tint")  # weight × colour = sheen × tint, the colour's brightest channel 1
+    sheen, sheen_colour = export.sheen_in_range() * float(sheen_tint.max()), sheen_tint / float(sheen_tint.max())
+    anisotropy = DISNEY_ANISOTROPY * p["anisotropic"]
     coat, coat_roughness = 0.25 * p["clearcoat"], float(np.sqrt(clearcoat_alpha(p["clearcoat_gloss"])))
     return {
         "standard_surface": {
             "base": 1.0, "base_color": _colour(colour), "metalness": p["metallic"], "specular": 1.0,
             "specular_color": _colour(specular_colour), "specular_roughness": p["roughness"], "specular_IOR": eta,
-            "specular_anisotropy": p["anisotropic"], "sheen": p["sheen"], "sheen_color": _colour(sheen_colour),
+            "specular_anisotropy": anisotropy, "sheen": sheen, "sheen_color": _colour(sheen_colour),
             "coat": coat, "coat_roughness": coat_roughness, "coat_IOR": 1.5},
         "open_pbr_surface": {
             "base_weight": 1.0, "base_color": _colour(colour), "base_metalness": p["metallic"], "specular_weight": 1.0,
-            "specular_color": _colour(specular_colour), "specular_roughness": p["roughness"], "specular_ior": eta,
-            "specular_roughness_anisotropy": p["anisotropic"], "fuzz_weight": p["sheen"],
+            "specular_color": _colour(specular_colour), "specular_roughness": open_pbr_roughness(export),
+            "specular_ior": eta, "specular_roughness_anisotropy": anisotropy, "fuzz_weight": sheen,
             "fuzz_color": _colour(sheen_colour), "coat_weight": coat, "coat_roughness": coat_roughness, "coat_ior": 1.5},
     }
 
@@ -84,13 +102,18 @@ def export_materialx(export: PrincipledExport, path, name: str) -> list[str]:
     options.writeXIncludeEnable = False
     atomic_write(path, mx.writeToXmlString(doc, options).encode())
     warnings = list(export.warnings)
-    if export.params["subsurface"] > 0.0:
-        error, relative = dropped_error(export, {"subsurface": 0.0})
-        warnings.append(f"mtlx: subsurface (principled's flatness) is not carried: Ngan {error:.4g} "
-                        f"({100 * relative:.1f} % of the material)")
-    if export.params["clearcoat"] > 0.0:
-        error, relative = dropped_error(export, {"clearcoat": 0.0})
-        warnings.append("mtlx: the clear coat is carried approximately (a GGX coat layer of weight clearcoat/4, "
-                        f"roughness √α, instead of a GTR1 lobe); the whole coat is Ngan {error:.4g} "
-                        f"({100 * relative:.1f} % of the material)")
+    p = export.params
+    if p["subsurface"] > 0.0:
+        warnings += loss_warnings(export, {"subsurface": 0.0}, "mtlx: subsurface (principled's flatness) is not carried")
+    if p["clearcoat"] > 0.0:
+        warnings += loss_warnings(export, {"clearcoat": 0.0}, "mtlx: the clear coat is carried approximately (a GGX coat "
+                                  "layer of weight clearcoat/4, roughness √α, instead of a GTR1 lobe); the whole coat")
+    if p["sheen"] > 0.0:
+        warnings += loss_warnings(export, {"sheen": 0.0}, "mtlx: the sheen is carried approximately (Standard Surface's "
+                                  "sheen and OpenPBR's fuzz are a microfibre layer, not Disney's Schlick sheen); the whole sheen")
+        warnings += sheen_range_warnings(export, "mtlx")
+    if open_pbr_roughness(export) >= 1.0:  # OpenPBR at roughness 1 is Disney's at (2s / (1 + s²))^¼
+        s = export.aspect()
+        warnings += loss_warnings(export, {"roughness": (2.0 * s / (1.0 + s * s)) ** 0.25},
+                                  "mtlx: OpenPBR's specular_roughness is held at its 1 (a rough, strongly anisotropic lobe)")
     return warnings

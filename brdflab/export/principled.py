@@ -16,6 +16,9 @@ from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import get_model
 from brdflab.models.principled import CHANNELS, MIN_SPECULAR, specular_eta, tint
 
+DISNEY_ANISOTROPY = 0.9  # Disney's (and Mitsuba's) roughness aspect is √(1 − 0.9 a)
+LOSS_SAID = 5e-4  # a loss below 0.05 % of the material is not said (it would read "0.0 %")
+
 
 @dataclass
 class PrincipledExport:
@@ -31,14 +34,23 @@ class PrincipledExport:
     def base_color(self) -> list[float]:
         return [self.params[f"base_color_{c}"] for c in CHANNELS]
 
-    @property
-    def eta(self) -> float:
-        """The specular IOR the exports write, η(max(specular, MIN_SPECULAR))."""
-        return float(specular_eta(max(self.params["specular"], MIN_SPECULAR)))
+    def ior(self, f0_scale: float = 1.0) -> float:
+        """The specular IOR the exports write: η(max(specular, MIN_SPECULAR)), or with
+        `f0_scale` the IOR of that normal-incidence reflectance times f0_scale."""
+        return float(specular_eta(max(self.params["specular"], MIN_SPECULAR) * f0_scale))
 
     def tinted(self, amount: str) -> np.ndarray:
         """White blended towards the base colour's hue by parameter `amount` (specular_tint, sheen_tint)."""
         return 1.0 + self.params[amount] * (tint(np.array(self.base_color)) - 1.0)
+
+    def sheen_in_range(self) -> float:
+        """The sheen the formats write: at most 1 / the sheen tint's largest channel, so that the
+        sheen's colour, sheen × its tint (up to 4.7 for a saturated red), stays within [0, 1]."""
+        return min(self.params["sheen"], 1.0 / float(self.tinted("sheen_tint").max()))
+
+    def aspect(self) -> float:
+        """αy / αx of the main lobe: √(1 − 0.9 a)² = 1 − 0.9 a (Disney's and Mitsuba's aspect)."""
+        return 1.0 - DISNEY_ANISOTROPY * self.params["anisotropic"]
 
     def material(self, name: str = "principled") -> AnalyticMaterial:
         return AnalyticMaterial(name, "Linear", 3, [Lobe(get_model("Principled"), dict(self.params), [1.0, 1.0, 1.0])])
@@ -60,16 +72,19 @@ def as_principled(source, fmt: str, cancel=None) -> PrincipledExport:
     params = exact_principled(source)
     if params is not None:
         return PrincipledExport(params, exact=True)
-    from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
+    from brdflab.fitting.fit_cache import fit_once
+    from brdflab.fitting.lm import material_from_lobes
     from brdflab.fitting.samples import samples_of
 
     samples = samples_of(source)
-    result = fit(material_from_lobes(["Principled"], "Linear", samples.n_channels), samples, FitOptions(), cancel=cancel)
+    result, cached = fit_once(material_from_lobes(["Principled"], "Linear", samples.n_channels), samples, cancel=cancel)
     relative = result.error / result.zero_error if result.zero_error > 0 else 0.0
     what = "measured data" if not isinstance(source, AnalyticMaterial) else (
         "+".join(l.model.name for l in source.lobes) + " lobes")
-    warning = (f"{fmt}: the source ({what}) is not a principled material; it was fitted to Principled on the way "
-               f"out: Ngan error {result.error:.4g}, {100 * relative:.1f} % of the source's own size (a black BRDF's error)")
+    when = "fitted to Principled by an earlier export (read from the cache)" if cached else \
+        "fitted to Principled on the way out"
+    warning = (f"{fmt}: the source ({what}) is not a principled material; it was {when}: "
+               f"Ngan error {result.error:.4g}, {100 * relative:.1f} % of the source's own size (a black BRDF's error)")
     return PrincipledExport(dict(result.material.lobes[0].params), exact=False, error=result.error,
                             relative_error=relative, warnings=[warning])
 
@@ -86,3 +101,20 @@ def dropped_error(export: PrincipledExport, neutral: dict[str, float]) -> tuple[
     samples = samples_of(full)
     error, zero = metric_errors([reduced, None], samples, "Ngan")  # the grid's values are the full material's
     return error, (error / zero if zero > 0 else 0.0)
+
+
+def loss_warnings(export: PrincipledExport, neutral: dict[str, float], what: str) -> list[str]:
+    """`what: Ngan E (R % of the material)`, the cost of writing `neutral` values in place of
+    the material's own (see `dropped_error`), or nothing where that is below LOSS_SAID."""
+    error, relative = dropped_error(export, neutral)
+    return [f"{what}: Ngan {error:.4g} ({100 * relative:.1f} % of the material)"] if relative >= LOSS_SAID else []
+
+
+def sheen_range_warnings(export: PrincipledExport, fmt: str) -> list[str]:
+    """What keeping the sheen's colour within [0, 1] costs (`sheen_in_range`), if anything."""
+    sheen, written = export.params["sheen"], export.sheen_in_range()
+    if written >= sheen:
+        return []
+    return loss_warnings(export, {"sheen": written}, f"{fmt}: the sheen's colour (sheen × its tint) reaches "
+                         f"{sheen / written:.3g}, above the format's 0–1: written at sheen {written:.3g} "
+                         f"instead of {sheen:.3g}, hue kept")

@@ -17,7 +17,7 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.diagnosis import at_bound
-from brdflab.fitting.lm import FitOptions, fit, material_from_lobes, parameter_count
+from brdflab.fitting.lm import FIT_NAME, FitOptions, fit, material_from_lobes, parameter_count
 from brdflab.fitting.metrics import metric_errors
 from brdflab.fitting.samples import SampleSet, samples_of
 from brdflab.material.analytic import AnalyticMaterial, Lobe
@@ -134,4 +134,4 @@ def random_start(model, rng: np.random.Generator) -> tuple[tuple[str, float], ..
 def material_of(row: dict) -> AnalyticMaterial:
     """The fitted material of a row (its `fitted` lobes), e.g. to check its error."""
     lobes = [Lobe.create(l["model"], l["scale"], l["channel"], **l["parameters"]) for l in row["fitted"]]
-    return AnalyticMaterial("fit", row["combination"], 3, lobes)
+    return AnalyticMaterial(FIT_NAME, row["combination"], 3, lobes)
