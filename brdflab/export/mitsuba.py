@@ -111,7 +111,7 @@ def export_mitsuba(export: PrincipledExport, path: Path, env, name: str) -> list
     replaced = os.path.lexists(env_path)
     write_exr(env_path, env.data)
     atomic_write(path, scene_text(export, env_path.name, env.data.shape[1], name))
-    warnings = [f"mitsuba: replaced {env_path}, the map of the scene replaced"] if replaced else []
+    warnings = [f"mitsuba: replaced {env_path}, the map of the scene this export replaces"] if replaced else []
     warnings += export.warnings
     if export.params["anisotropic"] >= ANISOTROPY_SAID:
         warnings.append(f"mitsuba: anisotropic = {export.params['anisotropic']:.3g} follows each shape's own tangents "
