@@ -9,10 +9,12 @@ the commands that use them, so `brdflab --help` and `brdflab models` start at on
 from __future__ import annotations
 
 import argparse
+import codecs
 import io
 import json
 import math
 import os
+import re
 import signal
 import sys
 import threading
@@ -20,15 +22,29 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
-from brdflab.errors import BRDFLabError
+from brdflab.errors import BRDFLabError, shown_path
 from brdflab.io.resources import MODELS_ENV
 
 
 def _emit(args: argparse.Namespace, payload: dict, human: str) -> None:
     if getattr(args, "json", False):
-        print(json.dumps(payload, default=_json_default, ensure_ascii=False))
+        print(_json_text(payload))
     else:
         print(human)
+
+
+def _json_text(payload: dict, indent: int | None = None) -> str:
+    """`payload` as JSON. A file name that is not UTF-8 reaches Python as lone surrogates
+    (PEP 383), which no UTF-8 output can hold: they are written as \\udcXX escapes, so the
+    output stays UTF-8 JSON and json.loads then os.fsencode give the name's bytes back."""
+    text = json.dumps(payload, indent=indent, default=_json_default, ensure_ascii=False)
+    return re.sub("[\ud800-\udfff]", lambda m: f"\\u{ord(m.group()):04x}", text)
+
+
+def _shown_name(e: UnicodeEncodeError) -> tuple[str, int]:
+    """An encoding error handler for stdout: the bytes of a name that is not UTF-8 (lone
+    surrogates, PEP 383) as \\xNN, as error messages show names, so the output stays UTF-8."""
+    return shown_path(e.object[e.start:e.end]), e.end
 
 
 def _json_default(o):
@@ -74,8 +90,8 @@ def cmd_info(args: argparse.Namespace) -> int:
         return 0
     info = _json_safe(describe_file(Path(args.file)))
     for w in info.get("warnings", []):
-        print(f"{args.file}: warning: {w}", file=sys.stderr)
-    _emit(args, info, json.dumps(info, indent=2, default=_json_default, ensure_ascii=False))
+        print(f"{shown_path(args.file)}: warning: {w}", file=sys.stderr)
+    _emit(args, info, _json_text(info, indent=2))
     return 0
 
 
@@ -163,7 +179,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
     from brdflab.fitting.samples import MAX_DENSITY, samples_of
     from brdflab.sources.files import load_source
-    from brdflab.io.xmlio import save
+    from brdflab.io.xmlio import check_savable, save
 
     if not args.time_limit > 0:
         raise BRDFLabError(f"--time-limit {args.time_limit:g}: must be a positive number of seconds")
@@ -187,6 +203,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     combination = {"linear": "Linear", "fixed": "Fixed"}[args.combination]
     start = initial_material(lobes, combination, source.n_channels,
                              Path(args.init) if args.init else None, args.init_fitting)
+    if args.out:
+        check_savable(document_for(source_path, source), args.out, start)  # a name XML cannot hold
     samples = samples_of(source, args.samples, size=args.size, density=args.density)
     score_on = samples_of(source) if args.samples != "all" else None
     restarts = args.restarts if args.restarts is not None else not args.init  # a stored fit is continued
@@ -244,7 +262,7 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
     from brdflab.fitting.lm import FitOptions
     from brdflab.fitting.samples import samples_of
     from brdflab.fitting.stored import document_for
-    from brdflab.io.xmlio import save
+    from brdflab.io.xmlio import check_savable, save
     from brdflab.models import get_model
     from brdflab.sources.files import load_source
 
@@ -816,7 +834,9 @@ def main(argv: list[str] | None = None) -> int:
     from brdflab.cli_options import UsageError
 
     if argv is None and hasattr(sys.stdout, "reconfigure"):
-        sys.stdout.reconfigure(encoding="utf-8")  # JSON and names print as UTF-8 whatever the locale
+        # JSON and names print as UTF-8 whatever the locale; a name that is not UTF-8 as errors show it
+        codecs.register_error("brdflab-shown", _shown_name)
+        sys.stdout.reconfigure(encoding="utf-8", errors="brdflab-shown")
     argv = sys.argv[1:] if argv is None else argv
     parser = build_parser()
     try:

@@ -34,3 +34,13 @@ def shown_path(path: object) -> str:
         text = text.encode("utf-8", "backslashreplace").decode("utf-8")
     text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
     return text if len(text) <= MAX_PATH_SHOWN else f"{text[:MAX_PATH_SHOWN - 61]}…{text[-60:]}"
+
+
+def is_text_name(path: object) -> bool:
+    """Whether a file name is UTF-8 text. One that is not reaches Python as lone surrogates
+    (PEP 383): it names its file, but no XML, CSV or JSON record can hold it as it is."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True

@@ -310,3 +310,14 @@ def test_what_costs_nothing_is_not_said(tmp_path, fmt, suffix):
     assert stderr == "", stderr
     _, stderr = exported(tmp_path, principled("plaster", roughness=0.8, subsurface=0.5), fmt, suffix)
     assert "subsurface" in stderr and "(0.0 %" not in stderr
+
+
+@pytest.mark.parametrize("fmt, suffix", [("gltf", ".glb"), ("mtlx", ".mtlx")])
+def test_a_stretch_beyond_the_formats_alpha_is_said(tmp_path, fmt, suffix):
+    """glTF (αt = mix(αb, 1, strength²)) and Standard Surface (min(αx, 1)) hold αx at 1;
+    Disney's rough, strongly anisotropic lobe goes past it (roughness 0.9, anisotropic 1:
+    αx = 2.6). The export says what holding it costs, and the glTF still validates."""
+    out, stderr = exported(tmp_path, principled("felt", roughness=0.9, anisotropic=1.0), fmt, suffix)
+    assert "αx = 2.56 along the tangent is held at the format's 1" in stderr and "% of the material)" in stderr
+    if fmt == "gltf":
+        assert_valid_gltf(out)

@@ -138,6 +138,7 @@ def build_corpus(d: Path) -> None:
     (d / "no_charset" / "charset_normalizer.py").write_text("raise ImportError('not installed')\n")
     (d / "no_charset" / "chardet.py").write_text("raise ImportError('not installed')\n")
     build_corpus_of_issue_30(d)
+    build_corpus_of_issue_37_input(d)
 
 
 PHONG = '<ScalingFactors channel0="0.1" channel1="0.1" channel2="0.1"/>\n<Lobe><Model>BlinnPhong</Model><Type>Isotropic</Type>' \
@@ -303,6 +304,53 @@ def model_lobe(path: str, checksum: str | None = None) -> str:
                     f'<ModelFile path="{path}"{check}/></Lobe>')
 
 
+SECRET = "q7SECRETq7"  # in every refused file of issue 37's message cases: no message may print it
+NOT_UTF8 = os.fsdecode(b"mat\xe9")  # a Latin-1 name on a UTF-8 system, as Python holds it (PEP 383)
+NBSP = "\u00a0"
+
+
+def _brdf(params: str) -> str:
+    """A BRDF Explorer file whose parameters section is `params` and whose shader returns k."""
+    return (f"analytic\n::begin parameters\n{params}\n::end parameters\n::begin shader\n"
+            "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(0.1 * k * k); }\n::end shader\n")
+
+
+def build_corpus_of_issue_37_input(d: Path) -> None:
+    """Hostile files of issue 37 §1: refused files' bytes in messages, names that are not UTF-8,
+    accepted nonsense, overflowing bounds."""
+    w = lambda name, text: (d / name).write_text(text, encoding="utf-8")  # noqa: E731
+    # bytes of refused files: a model file that is a link to a password file, alone or in a folder
+    (d / "outside" / "shadow_secret").write_bytes(f"root:$6${SECRET}:19000:0:99999:7:::\n".encode())
+    (d / "link_shadow.brdf").symlink_to(d / "outside" / "shadow_secret")
+    (d / "models_shadow").mkdir()
+    (d / "models_shadow" / "shadow.brdf").symlink_to(d / "outside" / "shadow_secret")
+    w("tag_mismatch.xml", f"<BRDF><Material><{SECRET}></Material></BRDF>")
+    w("root_tag.xml", f"<{SECRET}><Material/></{SECRET}>")
+    w("undeclared_entity.xml", f"<BRDF>&{SECRET};</BRDF>")
+    w("encoding_name.xml", f"<?xml version='1.0' encoding='{SECRET}'?><BRDF/>")
+    w("combination_secret.xml", material(linear_lobe()).replace(">Linear<", f">{SECRET}<"))
+    w("descriptor_name.xml", f'<AnalyticBRDFModel name="{SECRET} !"><Equation_GLSL>x</Equation_GLSL></AnalyticBRDFModel>')
+    w("section_secret.brdf", f"analytic\n::begin {SECRET}\n::end {SECRET}\n")
+    w("type_secret.brdf", _brdf(f"{SECRET} k 0 1 0.5"))
+    # names that are not UTF-8: a valid material, a slice, the outputs
+    shutil.copy(FIG2, d / f"{NOT_UTF8}.xml")
+    (d / f"{NOT_UTF8}.slice").write_bytes(slice_bytes(0.05))
+    # accepted nonsense
+    fit = material(linear_lobe()).split("<Material>", 1)[1].split("</Material>", 1)[0]
+    w("fitting_two_materials.xml", material(linear_lobe()).replace("</BRDF>", (
+        f"<Fitting error=\"0.1\"><Material>{fit}</Material>"
+        f"<Material>{fit.replace('0.1', '0.2')}</Material></Fitting></BRDF>")))
+    w("nbsp_number.xml", material(PHONG.format(e=f"120{NBSP}")))
+    w("thin_space_scale.xml", material(linear_lobe(f'channel0="0.1" channel1="\u20090.1" channel2="0.1"')))
+    w("nbsp_default.brdf", _brdf(f"float k 0 1 0.5{NBSP}"))
+    w("nbsp_simulated.xml", "<BRDF><Material><Name>g</Name><Type>RayBounce</Type><Simulation model="
+                            f'"GaussianHeightField" resolution="32"><Parameters ior="1.5{NBSP}"/></Simulation>'
+                            "</Material></BRDF>")
+    # bounds beyond float32: NumPy's overflow RuntimeWarning, then a fit over an infinite range
+    w("bounds_1e308.brdf", _brdf("float k -1e308 1e308 0.5"))
+    (d / "models_1e308").mkdir()
+    w("models_1e308/bounds.brdf", _brdf("float k -1e308 1e308 0.5"))
+
 @dataclass
 class Case:
     """One command line over the corpus and what it must do."""
@@ -344,7 +392,7 @@ CASES: dict[str, Case] = {
     "lobes-20000-render": Case(R("lobes_20000.xml"), words=("20,000 lobes",)),
     "unknown-1e6": Case(["info", "unknown_1e6.xml", "--json"], status=0, words=("999,990 more",)),
     "unknown-3e6": Case(["info", "unknown_3e6.xml"], words=("3,000,011 elements",)),
-    "xml-deep": Case(["info", "deep.xml"], words=("depth",)),
+    "xml-deep": Case(["info", "deep.xml"], words=("nested deeper",)),
     "xml-many-attributes": Case(["info", "many_attributes.xml"], words=("100,000 attributes",)),
     "xml-many-parameters": Case(["info", "many_parameters.xml"], words=("100,000 attributes",)),
     "xml-infinite-statistics": Case(["info", "infinite_statistics.xml", "--json"], status=0),
@@ -378,7 +426,8 @@ CASES: dict[str, Case] = {
     "huge-scale": Case(["info", "huge_scale.xml", "--json"], words=("scaling factor",)),
     "fixed-missing-channels": Case(["info", "fixed_missing.xml"], words=("channel 1",)),
     "fixed-missing-channels-render": Case(R("fixed_missing.xml"), words=("channel 1",)),
-    "long-attribute": Case(["info", "long_attribute.xml"], words=("not a number",), read=("long_attribute.xml",)),
+    "long-attribute": Case(["info", "long_attribute.xml"], words=("not a number",), read=("long_attribute.xml",),
+                           leaks=("AAAAAAAA",)),
     # a Latin-1 comment in an OBJ, with no charset detector installed
     "mesh-latin1": Case(R(str(FIG2), "--mesh", "latin1.obj"), status=0, hide_charset=True),
     # a measured file that no longer matches its checksum: every command says so
@@ -476,6 +525,96 @@ CASES: dict[str, Case] = {
     "name-too-long": Case(E("long_name.xml"), names="xxxxxxxx", words=("missing",)),
     "file-name-not-utf8": Case(["info", os.fsdecode(b"caf\xe9.xml")], names="caf\\xe9.xml"),
     "file-name-newline": Case(["info", "new\nline.xml"], names="new\\nline.xml"),
+    # --- issue 37 §1 ---
+    # bytes of refused files: never in a message, also not as a warning about a model folder
+    "model-link-to-shadow": Case(E("link_shadow.brdf"), words=("analytic",), leaks=(SECRET,)),
+    "models-folder-link-to-shadow": Case(["models", "--models", "models_shadow"], status=0, names="shadow.brdf",
+                                         words=("analytic",), leaks=(SECRET,)),
+    "xml-tag-mismatch": Case(["info", "tag_mismatch.xml"], words=("malformed xml", "line 1"), leaks=(SECRET,)),
+    "xml-root-tag": Case(["info", "root_tag.xml"], words=("<brdf>",), leaks=(SECRET,)),
+    "xml-undeclared-entity": Case(["info", "undeclared_entity.xml"], words=("entity",), leaks=(SECRET,)),
+    "xml-encoding-name": Case(["info", "encoding_name.xml"], words=("encoding",), leaks=(SECRET,)),
+    "xml-combination": Case(["info", "combination_secret.xml"], words=("linear or fixed",), leaks=(SECRET,)),
+    "descriptor-name": Case(E("descriptor_name.xml"), words=("name",), leaks=(SECRET,)),
+    "brdf-section-name": Case(E("section_secret.brdf"), words=("section",), leaks=(SECRET,)),
+    "brdf-parameter-type": Case(E("type_secret.brdf"), words=("parameter type",), leaks=(SECRET,)),
+    # names that are not UTF-8: in messages, JSON, human output, saves, exports, batch (argv as raw bytes)
+    "name-not-utf8-info-json": Case(["info", f"{NOT_UTF8}.xml", "--json"], status=0),
+    "name-not-utf8-info": Case(["info", f"{NOT_UTF8}.xml"], status=0),
+    "name-not-utf8-eval-out": Case(["eval", str(FIG2), "--pairs", "pairs.npy", "--out", f"{NOT_UTF8}.npy", "--json"],
+                                   status=0),
+    "name-not-utf8-eval-out-human": Case(["eval", str(FIG2), "--pairs", "pairs.npy", "--out", f"{NOT_UTF8}2.npy"],
+                                         status=0),
+    "name-not-utf8-fit-out": Case(["fit", f"{NOT_UTF8}.xml", *FIT, "--out", f"{NOT_UTF8}-fit.xml", "--json"],
+                                  status=0),
+    "name-not-utf8-fit-stored": Case(["fit", f"{NOT_UTF8}.slice", *FIT, "--out", "stores_name.xml"],
+                                     names="stores_name.xml", words=("not utf-8",)),
+    "name-not-utf8-auto-stored": Case(["fit", f"{NOT_UTF8}.slice", "--auto", "--models", "BlinnPhong", "--out",
+                                       "stores_name.xml"], names="stores_name.xml", words=("not utf-8",)),
+    "name-not-utf8-batch": Case(["batch", f"{NOT_UTF8}.slice", "--lobes", "Lambertian", "--out", "batch_name"],
+                                names="mat\\xe9.slice", words=("not utf-8",)),
+    "name-not-utf8-render": Case(R(str(FIG2), "--out", f"{NOT_UTF8}.png", "--json"), status=0),
+    "name-not-utf8-export": Case(["export", str(FIG2), "--format", "glsl", "--out", f"{NOT_UTF8}.glsl", "--json"],
+                                 status=0),
+    # accepted nonsense: refused in one line naming the element or attribute
+    "fitting-two-materials": Case(["info", "fitting_two_materials.xml"], words=("<fitting> holds one <material>",)),
+    "nbsp-after-number": Case(["info", "nbsp_number.xml"], words=("exponent", "not a number", "non-ascii space")),
+    "thin-space-before-number": Case(["info", "thin_space_scale.xml"], words=("channel1", "non-ascii space")),
+    "nbsp-in-model-file": Case(E("nbsp_default.brdf"), words=("default", "non-ascii space")),
+    "nbsp-in-simulated": Case(["info", "nbsp_simulated.xml"], words=("ior", "non-ascii space")),
+    # bounds beyond float32 in a model file: one line, no RuntimeWarning
+    "model-bounds-1e308": Case(E("bounds_1e308.brdf"), words=("beyond",)),
+    "fit-bounds-1e308": Case(["fit", "ok.slice", "--lobes", "bounds_1e308.brdf", "--max-iterations", "2"],
+                             names="bounds_1e308.brdf", words=("beyond",)),
+    "models-folder-bounds-1e308": Case(["models", "--models", "models_1e308"], status=0, names="bounds.brdf",
+                                       words=("beyond",)),
+    # --- issue 37 §1 ---
+    # a real probe's size, resampled to lat-long within the memory limit by every environment mode
+    **{f"probe-1000-{mode}": Case(R(str(FIG2), "--mode", mode, "--env", "probe_1000.exr"), status=0)
+       for mode in ("fis", "sh", "prefiltered")},
+    # exports: the format's own name, never over the source or over a file the export did not write
+    "export-over-source": Case(["export", "paint.xml", "--format", "mitsuba", "--out", "paint_link.xml"],
+                               names="paint_link.xml", words=("never replaces its source",)),
+    "export-glsl-named-txt": Case(["export", str(FIG2), "--format", "glsl", "--out", "fig2.txt"], names="fig2.txt",
+                                  words=("named .glsl",)),
+    "export-merl-named-xml": Case(["export", "paint.xml", "--format", "merl", "--out", "paint_table.xml"],
+                                  names="paint_table.xml", words=("named .binary",)),
+    "export-map-over-a-file": Case(["export", "paint.xml", "--format", "mitsuba", "--out", "own.xml"],
+                                   names="own_env.exr", words=("not the map of a scene being replaced",)),
+    # files a material names that are there but refused: the real reason, never "missing"; info as every command
+    "modelfile-outside-no-checksum": Case(["info", "mat/model_outside_no_sum.xml"], names="minnaert.brdf",
+                                          words=("no sha256", "folder policy")),
+    "modelfile-shadow-bad-checksum": Case(["info", "mat/model_shadow_bad_sum.xml"], names="shadow",
+                                          words=("does not match", "folder policy"), read=("outside/shadow",)),
+    "modelfile-fifo": Case(["info", "mat/model_fifo.xml"], names="fifo.brdf", words=("not a regular file", "fifo")),
+    "modelfile-device": Case(["info", "mat/model_device.xml"], names="dev.brdf",
+                             words=("not a regular file", "character device")),
+    "modelfile-link-out": Case(["info", "mat/model_link_out.xml"], names="shadow_link.brdf",
+                               words=("through a link", "folder policy"), read=("outside/shadow",)),
+    "names-shadow-info": Case(["info", "mat/names_shadow.xml", "--json"], names="shadow",
+                              words=("outside the material's folder", "folder policy"), leaks=SHADOW_DIMS),
+    "names-fifo-info": Case(["info", "names_fifo.xml"], names="fifo.slice", words=("not a regular file", "fifo")),
+    # --- issue 37 §2: model files ---
+    # loops the driver would end silently: refused (never a wrong value), with the reason
+    "model-loop-endless": Case(E("loop_endless.brdf"), words=("loops run past 65,000 steps",)),
+    "model-loop-1e5": Case(E("loop_1e5.brdf"), words=("loops run past 65,000 steps",)),
+    "model-loop-nested": Case(E("loop_nested.brdf"), words=("loops run past 65,000 steps",)),
+    "model-while-true-empty": Case(E("while_true.brdf"), words=("loops run past 65,000 steps",)),
+    "model-loop-fine": Case(E("loop_fine.brdf"), status=0),
+    # GLSL's gl_ variables belong to the lab's shaders: refused by eval and render alike (render had a traceback)
+    "model-gl-position-eval": Case(E("position.brdf"), words=("line 7", "gl_position")),
+    "model-gl-position-render": Case(R("position.brdf"), words=("line 7", "gl_position")),
+    # arrays read before compiling (10⁸ floats took 40 s and 2.4 GB to be refused, 10⁶ 35 s)
+    "model-array-1e8": Case(E("array_1e8.brdf"), words=("line 7", "100,000,000 elements")),
+    "model-array-1e6-const": Case(E("array_1e6.brdf"), words=("1,000,000 elements",)),
+    "model-array-cast": Case(E("array_cast.brdf"), words=("100,000,000 elements",)),
+    "model-loop-in-define": Case(E("loop_in_define.brdf"), words=("line 6", "inside a #define")),
+    "model-array-in-define": Case(E("array_in_define.brdf"), words=("line 6", "100,000,000 elements")),
+    # two files of one model name in the folders a command names: both skipped, said, the rest usable
+    "models-folder-twins": Case(["models", "--models", "twins_a", "--models", "twins_b"], status=0, names="twin.brdf",
+                                words=("all are skipped",)),
+    "models-folder-twins-eval": Case(E("twins_a/good.brdf", "--models", "twins_a", "--models", "twins_b"), status=0,
+                                     names="twin.brdf", words=("all are skipped",)),
     # --- issue 37 §1 ---
     # a real probe's size, resampled to lat-long within the memory limit by every environment mode
     **{f"probe-1000-{mode}": Case(R(str(FIG2), "--mode", mode, "--env", "probe_1000.exr"), status=0)
@@ -584,6 +723,27 @@ def test_saves_write_through_links_and_never_over_special_files(results):
     assert (folder / "link.xml").is_symlink() and os.readlink(folder / "link.xml") == "real.xml"
     assert len(load_document(folder / "real.xml").fittings) == 1
     assert not (folder / "device.xml").is_file() and (folder / "device.xml").exists()
+
+
+def test_names_that_are_not_utf8_come_back_whole_and_refusals_write_nothing(results):
+    """A name that is not UTF-8 is a JSON escape that gives its bytes back, the fit stored under
+    one reads back, and a fit or batch that could not record the name it stores wrote nothing."""
+    folder, done = results
+    info = _strict_json(done["name-not-utf8-info-json"].stdout.strip().splitlines()[-1])
+    assert os.fsencode(info["file"]) == b"mat\xe9.xml"
+    out = _strict_json(done["name-not-utf8-eval-out"].stdout.strip().splitlines()[-1])["out"]
+    assert os.fsencode(out) == b"mat\xe9.npy" and (folder / out).is_file()
+    assert "mat\\xe92.npy" in done["name-not-utf8-eval-out-human"].stdout
+    assert len(load_document(folder / f"{NOT_UTF8}-fit.xml").fittings) == 1
+    assert not (folder / "stores_name.xml").exists() and not (folder / "batch_name" / "fits").exists()
+
+
+def test_a_fitting_with_two_materials_names_the_second(results):
+    """The second <Material> of a <Fitting> is refused on its own line (the last one used to win)."""
+    folder, done = results
+    lines = (folder / "fitting_two_materials.xml").read_text().splitlines()
+    second = max(k for k, line in enumerate(lines, 1) if "<Material>" in line)
+    assert f"line {second}: <Material>" in done["fitting-two-materials"].stderr
 
 
 def load_document(path: Path):

@@ -43,7 +43,7 @@ CASES = {
                       "40 parameters (counting each colour as three) is more than the 32"),
     "unicode-digit.brdf": (brdf(params="float k 0 1 \uff13"), "is not a number"),
     "bool-two.brdf": (brdf(params="bool k 2", line="return vec3(k ? 1.0 : 0.5);"), "its default must be 0 or 1"),
-    "int-type.brdf": (brdf(params="int k 0 1 0"), "unknown parameter type 'int'"),
+    "int-type.brdf": (brdf(params="int k 0 1 0"), "unknown parameter type (float, bool or color)"),
     "keyword-name.brdf": (brdf(params="float return 0 1 .5"), "must be 1-64 letters"),
     "not-utf8.brdf": (b"analytic\n\xff\xfe::begin parameters\n", "not UTF-8 text"),
     "huge.brdf": ("# " + "x" * (2 << 20) + "\n" + brdf(), "a model file has at most"),

@@ -205,7 +205,7 @@ BAD = {
     "out of bounds": (ORIGINAL.replace(b'ax="0.12"', b'ax="7"'), "ax=7 is outside"),
     "NaN": (ORIGINAL.replace(b'Exponent="43.1"', b'Exponent="NaN"'), "Exponent is NaN"),
     "Inf": (ORIGINAL.replace(b'channel1="0.35"', b'channel1="inf"'), "channel1 is inf"),
-    "not a number": (ORIGINAL.replace(b'Cz="0.522"', b'Cz="abc"'), "Cz='abc' is not a number"),
+    "not a number": (ORIGINAL.replace(b'Cz="0.522"', b'Cz="abc"'), "Cz is not a number"),
     "wrong channel count": (ORIGINAL.replace(b'nChannels="3" nLobes="4"', b'nChannels="2" nLobes="4"'), "channel2"),
     "wrong lobe count": (ORIGINAL.replace(b'nLobes="4"', b'nLobes="5"'), "nLobes=5 but 4"),
     "fixed channel out of range": (ORIGINAL.replace(b'<Lobe channel="2">', b'<Lobe channel="5">'), "channel 5"),

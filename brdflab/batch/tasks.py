@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from brdflab.errors import BRDFLabError
+from brdflab.errors import BRDFLabError, is_text_name
 from brdflab.sources.measured import READERS
 
 FIT_EXTENSIONS = (*READERS, ".xml")  # every measured format the lab reads, and XML materials
@@ -203,6 +203,10 @@ def discover_sources(paths: list[Path]) -> list[Path]:
         else:
             raise BRDFLabError("no such file or folder", p)
     unique = list(dict.fromkeys(f.resolve() for f in found))
+    for f in unique:  # refused before any fit: its table row and XML file could not record it
+        if not is_text_name(f):
+            raise BRDFLabError("the file's name is not UTF-8 text, which the batch's table and XML files "
+                               "cannot record (rename it)", f)
     if not unique:
         raise BRDFLabError("no measured, simulated or XML files found in " + ", ".join(map(str, paths)))
     return unique

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.export.principled import PrincipledExport, loss_warnings, sheen_range_warnings
+from brdflab.export.principled import PrincipledExport, loss_warnings, sheen_range_warnings, stretch_warnings
 from brdflab.models.principled import alphas, clearcoat_alpha
 
 SPHERE_RINGS, SPHERE_SEGMENTS = 48, 96
@@ -52,7 +52,7 @@ def anisotropy(export: PrincipledExport) -> tuple[float, dict[str, float] | None
     """glTF's roughnessFactor and KHR_materials_anisotropy for Disney's main lobe. glTF has
     αb = roughness² across and αt = mix(αb, 1, strength²) along the tangent; Disney αx =
     r² / √(1 − 0.9 a) along it, αy = r² √(1 − 0.9 a): roughness √αy and strength
-    √((αx − αy) / (1 − αy)) give both (αx above 1, glTF's most, is written as 1)."""
+    √((αx − αy) / (1 − αy)) give both (αx above 1, glTF's most, is written as 1: `stretch_warnings`)."""
     p = export.params
     if p["anisotropic"] <= 0.0:
         return float(p["roughness"]), None
@@ -137,4 +137,4 @@ def export_gltf(export: PrincipledExport, path: Path, name: str) -> list[str]:
         warnings += loss_warnings(export, {"sheen": 0.0}, "gltf: the sheen is carried approximately (KHR_materials_sheen's "
                                   "Charlie lobe of roughness 0.5, not Disney's Schlick sheen); the whole sheen")
         warnings += sheen_range_warnings(export, "gltf")
-    return warnings
+    return warnings + stretch_warnings(export, "gltf")

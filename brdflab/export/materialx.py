@@ -20,7 +20,13 @@ import re
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.export.principled import DISNEY_ANISOTROPY, PrincipledExport, loss_warnings, sheen_range_warnings
+from brdflab.export.principled import (
+    DISNEY_ANISOTROPY,
+    PrincipledExport,
+    loss_warnings,
+    sheen_range_warnings,
+    stretch_warnings,
+)
 from brdflab.models.principled import clearcoat_alpha
 
 
@@ -116,4 +122,5 @@ def export_materialx(export: PrincipledExport, path, name: str) -> list[str]:
         s = export.aspect()
         warnings += loss_warnings(export, {"roughness": (2.0 * s / (1.0 + s * s)) ** 0.25},
                                   "mtlx: OpenPBR's specular_roughness is held at its 1 (a rough, strongly anisotropic lobe)")
+    warnings += stretch_warnings(export, "mtlx (Standard Surface)")
     return warnings

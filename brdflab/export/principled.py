@@ -14,7 +14,7 @@ import numpy as np
 
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import get_model
-from brdflab.models.principled import CHANNELS, MIN_SPECULAR, specular_eta, tint
+from brdflab.models.principled import CHANNELS, MIN_SPECULAR, alphas, specular_eta, tint
 
 DISNEY_ANISOTROPY = 0.9  # Disney's (and Mitsuba's) roughness aspect is √(1 − 0.9 a)
 LOSS_SAID = 5e-4  # a loss below 0.05 % of the material is not said (it would read "0.0 %")
@@ -118,3 +118,15 @@ def sheen_range_warnings(export: PrincipledExport, fmt: str) -> list[str]:
     return loss_warnings(export, {"sheen": written}, f"{fmt}: the sheen's colour (sheen × its tint) reaches "
                          f"{sheen / written:.3g}, above the format's 0–1: written at sheen {written:.3g} "
                          f"instead of {sheen:.3g}, hue kept")
+
+
+def stretch_warnings(export: PrincipledExport, what: str) -> list[str]:
+    """What holding αx at 1 costs (glTF's and Standard Surface's most; Disney's has none),
+    if anything: the lobe written is Disney's (αx, αy) = (1, αy), roughness αy^¼ and
+    anisotropic (1 − αy) / 0.9 (within 0–1: αx / αy ≤ 10, so αy > 0.1 wherever αx > 1)."""
+    ax, ay = (float(v) for v in alphas(export.params["roughness"], export.params["anisotropic"]))
+    if ax <= 1.0:
+        return []
+    return loss_warnings(export, {"roughness": ay ** 0.25, "anisotropic": (1.0 - ay) / DISNEY_ANISOTROPY},
+                         f"{what}: αx = {ax:.3g} along the tangent is held at the format's 1 (a rough, strongly "
+                         "anisotropic lobe)")

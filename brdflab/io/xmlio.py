@@ -207,9 +207,8 @@ class _Reader:
     def number(self, el: etree._Element, attr: str, value: str) -> float:
         try:
             v = ascii_number(value)
-        except ValueError:
-            shown = repr(value) if len(value) <= 32 else f"{value[:24]!r}… ({len(value)} characters)"
-            raise self.fail(el, f"{attr}={shown} is not a number") from None
+        except ValueError as e:
+            raise self.fail(el, f"{attr} is {e}") from None
         if not math.isfinite(v):
             raise self.fail(el, f"{attr} is {value} (must be finite)")
         return v
@@ -220,14 +219,13 @@ class _Reader:
             raise self.fail(el, f"missing attribute {attr}")
         try:
             return ascii_integer(value)
-        except ValueError:
-            shown = repr(value) if len(value) <= 32 else f"{value[:24]!r}… ({len(value)} characters)"
-            raise self.fail(el, f"{attr}={shown} is not an integer") from None
+        except ValueError as e:
+            raise self.fail(el, f"{attr} is {e}") from None
 
     # --- elements ---------------------------------------------------------------
     def document(self, root: etree._Element) -> BRDFDocument:
-        if root.tag != "BRDF":
-            raise self.fail(root, "the root element must be <BRDF>")
+        if root.tag != "BRDF":  # its own tag is not named: the file is not a material at all
+            raise BRDFLabError(f"line {root.sourceline}: the root element must be <BRDF>", self.path)
         info = None
         material = None
         fittings: list[Fitting] = []
@@ -265,6 +263,8 @@ class _Reader:
             if not isinstance(child.tag, str):
                 continue
             if child.tag == "Material":
+                if material is not None:  # as at top level: the two may disagree, and the last would win
+                    raise self.fail(child, "a <Fitting> holds one <Material>; found a second one")
                 material = self.material(child)
                 if not isinstance(material, AnalyticMaterial):
                     raise self.fail(child, "a <Fitting> must hold an analytic material")
@@ -304,7 +304,7 @@ class _Reader:
             return MeasuredReference(mtype, name, self.base_dir, sha, extra, el)
         combination = self.text(el, "LobeCombination")
         if combination not in ("Linear", "Fixed"):
-            raise self.fail(el.find("LobeCombination"), f"LobeCombination must be Linear or Fixed, not {combination!r}")
+            raise self.fail(el.find("LobeCombination"), "LobeCombination must be Linear or Fixed")
         params = el.find("Parameters")
         if params is None:
             raise self.fail(el, "an analytic material needs <Parameters nChannels=.. nLobes=..>")
@@ -508,7 +508,7 @@ def checked_root(data: bytes, path, kind: str = "material") -> tuple[etree._Elem
     try:
         root = etree.fromstring(data, etree.XMLParser(**_PARSER_OPTIONS))
     except etree.XMLSyntaxError as e:
-        raise BRDFLabError(f"malformed XML: {e}", path) from None
+        raise BRDFLabError(syntax_problem(e), path) from None
     if root is None:
         raise BRDFLabError("empty XML document", path)
     doctype = _checked_doctype(root, data, path, kind)
@@ -518,6 +518,20 @@ def checked_root(data: bytes, path, kind: str = "material") -> tuple[etree._Elem
     if any(isinstance(node, etree._Entity) for node in root.iter()):
         raise BRDFLabError(f"entity references are not accepted in {kind} files", path)
     return root, doctype
+
+
+_LIBXML2_ERRORS = {code: name for name, code in vars(etree.ErrorTypes).items() if name.startswith("ERR_")}
+_PHRASES = {"ERR_RESOURCE_LIMIT": "beyond a parser limit (elements nested deeper than 256, or a text or name too long)"}
+
+
+def syntax_problem(e: etree.XMLSyntaxError) -> str:
+    """What is wrong with malformed XML, where, without libxml2's own words: they quote the
+    file (tag names, entity names, the encoding it declares), and a refused file's bytes
+    never reach a message."""
+    name = _LIBXML2_ERRORS.get(e.code, "ERR_UNKNOWN")
+    line, column = e.position if e.position else (0, 0)
+    problem = _PHRASES.get(name, name.removeprefix("ERR_").lower().replace("_", " "))
+    return f"malformed XML at line {line}, column {column}: {problem} (libxml2 error {e.code})"
 
 
 _BARE_DOCTYPE = re.compile(r"<!DOCTYPE\s+([A-Za-z_][\w.-]*)\s*>", re.ASCII)
@@ -680,15 +694,33 @@ def to_text(doc: BRDFDocument) -> str:
 def save(doc: BRDFDocument, path: str | os.PathLike) -> None:
     """Write `doc` to `path` atomically. Measured data paths stay relative to the file."""
     path = Path(path)
+    atomic_write(path, serialized(doc, path))
+    doc.path = path
+
+
+def serialized(doc: BRDFDocument, path: Path) -> bytes:
+    """The bytes `save` writes for `doc` at `path` (data and model files named relative to
+    it); BRDFLabError, naming `path`, when a file name it must record is not XML text: a name
+    that is not UTF-8 reaches Python as lone surrogates (PEP 383), which lxml refused with a
+    UnicodeEncodeError traceback."""
     if isinstance(doc.material, MeasuredReference):
         doc.material = _rebase(doc.material, path.parent)
     _WRITE_DIR[0] = path.parent
     try:
-        data = to_bytes(doc)
+        return to_bytes(doc)
+    except ValueError:  # UnicodeEncodeError (not UTF-8), or lxml's refusal of a control character
+        raise BRDFLabError("cannot save: a data or model file it names has a name that is not UTF-8 text, "
+                           "which an XML material cannot hold (rename that file)", path) from None
     finally:
         _WRITE_DIR[0] = None
-    atomic_write(path, data)
-    doc.path = path
+
+
+def check_savable(doc: BRDFDocument, path: str | os.PathLike, fit: AnalyticMaterial | None = None) -> None:
+    """The BRDFLabError `save` would raise for `doc` with `fit` stored in it, raised before
+    the work (a fit) whose result would then be lost; writes nothing."""
+    probe = copy.copy(doc)
+    probe.fittings = [*doc.fittings, *([Fitting(fit)] if fit is not None else [])]
+    serialized(probe, Path(path))
 
 
 def _rebase(ref: MeasuredReference, new_dir: Path) -> MeasuredReference:

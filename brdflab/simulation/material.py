@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.numbers import ascii_integer
 from brdflab.simulation import microgeometry, scatmech
 from brdflab.simulation.registry import get_kind
 from brdflab.simulation.table import HalfDiffTable, node_directions
@@ -190,9 +191,9 @@ def _integer(settings: dict, name: str, default: int) -> int:
     if text is None:
         return default
     try:
-        return int(text)
-    except ValueError:
-        raise BRDFLabError(f"<Simulation {name}={text!r}> is not an integer") from None
+        return ascii_integer(text)
+    except ValueError as e:
+        raise BRDFLabError(f"<Simulation {name}> is {e}") from None
 
 
 def spec_of(ref) -> SimulationSpec:

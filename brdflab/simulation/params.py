@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.numbers import ascii_number
 
 
 @dataclass(frozen=True)
@@ -29,11 +30,13 @@ class SimParameter:
                 raise BRDFLabError(f"{self.name}={text!r}: expected one of {', '.join(self.choices)}")
             return word
         try:
-            value = float(text)
-        except (TypeError, ValueError):
-            raise BRDFLabError(f"{self.name}={text!r} is not a number") from None
+            value = ascii_number(text) if isinstance(text, str) else float(text)
+        except TypeError:
+            raise BRDFLabError(f"{self.name} is not a number") from None
+        except ValueError as e:  # a file's text: ASCII digits only, and never quoted
+            raise BRDFLabError(f"{self.name} is {e}") from None
         if not math.isfinite(value):
-            raise BRDFLabError(f"{self.name}={text!r} must be finite")
+            raise BRDFLabError(f"{self.name}={value} must be finite")
         if not (self.lower <= value <= self.upper):
             raise BRDFLabError(f"{self.name}={value:g} is outside [{self.lower:g}, {self.upper:g}]")
         if self.integer:

@@ -19,9 +19,11 @@ X = x, Y = y).
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.numbers import ASCII_SPACE
 from brdflab.models.base import Parameter
 from brdflab.models.files import glsl_text
 from brdflab.models.files.limits import check_parameters, number, parameter_name
@@ -58,7 +60,7 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
         if section == "shader":
             if line.startswith("::end"):
                 if line.split()[1:2] != ["shader"]:
-                    raise fail(lineno, f"{line[:40]!r} inside the shader section (expected ::end shader)")
+                    raise fail(lineno, "an ::end inside the shader section that is not ::end shader")
                 section = ""
                 continue
             shader.append("" if line.startswith("#") else raw)
@@ -71,7 +73,7 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
                 raise fail(lineno, f"::begin inside the {section} section")
             section = words[1] if len(words) > 1 else ""
             if section not in SECTIONS:
-                raise fail(lineno, f"unknown section {section[:40]!r} (known: {', '.join(SECTIONS)})")
+                raise fail(lineno, f"::begin names no known section ({', '.join(SECTIONS)})")
             if section in seen_sections:
                 raise fail(lineno, f"a second {section} section")
             seen_sections.add(section)
@@ -81,20 +83,20 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
             continue
         if words[0] == "::end":
             if words[1:2] != [section]:
-                raise fail(lineno, f"{line[:40]!r} does not close the {section or 'no'} section")
+                raise fail(lineno, f"::end does not close the {section} section" if section else "::end outside any section")
             section = ""
             continue
         if section == "parameters":
-            params.extend(_parameter(words, lambda m: fail(lineno, m), declared))
+            params.extend(_parameter(_ascii_words(raw), lambda m: fail(lineno, m), declared))
         elif section == "isFunc":
             continue
         elif kind_line is None:
             kind_line = words[0]
             if kind_line != "analytic":
-                raise fail(lineno, f"{kind_line[:40]!r}: only analytic BRDF Explorer files are models "
+                raise fail(lineno, "the first line is not 'analytic': only analytic BRDF Explorer files are models "
                                    "(measured ones are data: open them as materials)")
         else:
-            raise fail(lineno, f"{line[:40]!r} outside any section")
+            raise fail(lineno, "text outside any section")
     if section:
         raise BRDFLabError(f"the {section} section is never closed (::end {section})", path)
     if "shader" not in seen_sections:
@@ -135,6 +137,12 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
                      summary=f"BRDF Explorer file {path.name}", warnings=tuple(warnings))
 
 
+def _ascii_words(line: str) -> list[str]:
+    """A parameter line's words, split at ASCII white space only: str.split() would also split
+    at (and so drop) a no-break space, and "0.5\u00a0" would be read as 0.5."""
+    return [w for w in re.split(f"[{re.escape(ASCII_SPACE)}]+", line) if w]
+
+
 def _parameter(words: list[str], fail, declared: list) -> list[Parameter]:
     kind = words[0]
     if kind == "float":
@@ -165,7 +173,7 @@ def _parameter(words: list[str], fail, declared: list) -> list[Parameter]:
         declared.append(("color", name, comps))
         return [Parameter(c, v, 0.0, 1.0, doc=f"{name}, {label}", kind="colour")
                 for c, v, label in zip(comps, rgb, ("red", "green", "blue"))]
-    raise fail(f"unknown parameter type {kind[:20]!r} (float, bool or color)")
+    raise fail("unknown parameter type (float, bool or color)")
 
 
 def _uses_tangent_frame(code: str) -> bool:

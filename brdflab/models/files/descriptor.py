@@ -51,10 +51,10 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
 
     model_name = (root.get("name") or "").strip()
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_.\-]{0,63}", model_name):
-        raise fail(root, f"the model's name={model_name[:40]!r} must be 1-64 letters, digits, '_', '.' or '-'")
+        raise fail(root, "the model's name must be 1-64 letters, digits, '_', '.' or '-'")
     kind = root.get("type", "Isotropic")
     if kind not in ("Isotropic", "Anisotropic"):
-        raise fail(root, f"type={kind[:40]!r} must be Isotropic or Anisotropic")
+        raise fail(root, "type must be Isotropic or Anisotropic")
 
     params_el = root.find("Parameters")
     params: list[Parameter] = []
@@ -63,7 +63,7 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
             if not isinstance(el.tag, str):
                 continue
             if el.tag != "Parameter":
-                raise fail(el, f"<Parameters> holds <Parameter> elements, not <{el.tag}>")
+                raise fail(el, "<Parameters> holds only <Parameter> elements")
             pname = parameter_name(el.get("name") or "", lambda m: fail(el, m))
             if pname in DIRECTIONS or pname in CONSTANTS or pname in FUNCTIONS:
                 raise fail(el, f"parameter {pname!r} has the name of a direction, constant or function")

@@ -7,10 +7,11 @@ import re
 from typing import Callable
 
 from brdflab.errors import BRDFLabError
-from brdflab.io.numbers import DECIMAL  # ASCII digits only
+from brdflab.io.numbers import ascii_number  # ASCII digits only
 from brdflab.models.base import Parameter
 
 MAX_MODEL_BYTES = 1 << 20  # BRDF Explorer's largest file (disney.brdf) is 4 KB
+FLOAT32_MAX = 3.4028234663852886e38  # numpy.finfo(numpy.float32).max, without importing NumPy here
 MAX_PARAMETERS = 32  # scalars: the renderers pass a lobe's parameters as float p[NP], NP ≤ 32 (render.glsl)
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _GLSL_RESERVED = frozenset("""
@@ -23,15 +24,19 @@ superp input output filter sizeof cast namespace using main
 
 
 def number(text: str | None, what: str, fail: Callable[[str], BRDFLabError]) -> float:
-    """A finite number written in ASCII digits (no locale digits, no underscores)."""
+    """A finite number written in ASCII digits (no locale digits, underscores or Unicode
+    spaces), within float32's range: the renderers pass parameters to GLSL as float, and a
+    bound of ±1e308 became ±inf there (NumPy's RuntimeWarning, then a fit over an infinite range)."""
     if text is None:
         raise fail(f"missing {what}")
-    t = text.strip()
-    if not DECIMAL.fullmatch(t):
-        raise fail(f"{what}={t[:32]!r} is not a number")
-    v = float(t)
+    try:
+        v = ascii_number(text)
+    except ValueError as e:
+        raise fail(f"{what} is {e}") from None
     if not math.isfinite(v):
-        raise fail(f"{what}={t[:32]!r} is not finite")
+        raise fail(f"{what} is not finite")
+    if abs(v) > FLOAT32_MAX:
+        raise fail(f"{what} is beyond ±{FLOAT32_MAX:.3g}, the largest float the renderers' GLSL holds")
     return v
 
 
@@ -40,7 +45,7 @@ def parameter_name(text: str, fail: Callable[[str], BRDFLabError]) -> str:
 
     t = text.strip()
     if not _IDENT.fullmatch(t) or t in _GLSL_RESERVED or t in TYPES or t.startswith("gl_") or "__" in t:
-        raise fail(f"parameter name {t[:40]!r} must be 1-64 letters, digits or '_' (not starting with a digit, "
+        raise fail("a parameter name must be 1-64 letters, digits or '_' (not starting with a digit, "
                    "no '__'), and not a GLSL keyword")
     return t
 
