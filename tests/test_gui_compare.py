@@ -39,7 +39,7 @@ def test_plots_compare_slices_and_show_convergence():
 
 
 def test_split_and_difference_show_the_fit_beside_the_original(window, qtbot, tmp_path):
-    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.gui.commands import ReplaceFittings
     from brdflab.io.xmlio import Fitting
     from brdflab.sources.measured import tabulate, write_merl_binary
 
@@ -82,7 +82,7 @@ def test_the_difference_view_waits_for_a_sample_set_instead_of_showing_noise(win
     """Issue 37 §4: lit by a map, the difference of two images of a few samples each was
     their noise (~33 % of the pixels red to white for the first ~10 s). A fit that differs
     from the original by a few per cent must not look like that at any time."""
-    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.gui.commands import ReplaceFittings
     from brdflab.io.xmlio import Fitting
 
     view, ws = window.object_view, window.workspace

@@ -26,7 +26,7 @@ def _ward() -> AnalyticMaterial:  # a fit that misses: broader than the data's h
 
 def _store_fits(window, fits, shown: int) -> None:
     """Stored fits, as a fit run leaves them, fit `shown` selected in the Fitting panel's list."""
-    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.gui.commands import ReplaceFittings
     from brdflab.io.xmlio import Fitting
 
     ws = window.workspace

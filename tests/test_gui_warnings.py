@@ -30,7 +30,7 @@ def test_energy_violation_of_the_material_is_shown_and_goes_away(window, qtbot):
 
 
 def test_a_stored_fit_that_violates_energy_is_flagged(window, qtbot):
-    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.gui.commands import ReplaceFittings
     from brdflab.io.xmlio import Fitting
     from brdflab.material.analytic import AnalyticMaterial, Lobe
 
@@ -74,7 +74,7 @@ def test_clamped_fraction_counts_covered_negative_pixels():
 
 
 def test_the_energy_banner_is_one_short_line_with_a_number_above_one(window, qtbot):  # noqa: F811
-    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.gui.commands import ReplaceFittings
     from brdflab.io.xmlio import Fitting
     from brdflab.material.analytic import AnalyticMaterial, Lobe
 

@@ -105,7 +105,7 @@ def _shader_difference_colours(view, values) -> np.ndarray:
 def _difference_window(window, qtbot, tmp_path):
     """A measured original and a poor fit of it (a dull Lambertian), shown as their difference
     under the point light; returns the view once both images are drawn."""
-    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.gui.commands import ReplaceFittings
     from brdflab.io.xmlio import Fitting
     from brdflab.material.analytic import AnalyticMaterial, Lobe
 
@@ -219,7 +219,7 @@ def test_docked_plots_keep_their_labels_apart(window, qtbot, tmp_path, monkeypat
     convergence: no text over another plot or its texts, none cut at the figure's edge."""
     from PySide6.QtCore import Qt
 
-    from brdflab.gui.main_window import ReplaceFittings
+    from brdflab.gui.commands import ReplaceFittings
     from brdflab.gui.panels import PLOT_ROW_HEIGHT, plot_figure, plot_grid
     from brdflab.io.xmlio import Fitting
     from brdflab.material.analytic import AnalyticMaterial, Lobe

@@ -2,71 +2,47 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QSettings, Qt, QTimer, Slot
-from PySide6.QtGui import QAction, QGuiApplication, QKeySequence, QUndoCommand, QUndoStack
-from PySide6.QtWidgets import (QApplication, QDockWidget, QFileDialog, QLabel, QMainWindow, QMenu, QMessageBox,
+from PySide6.QtCore import QSettings, Qt, QTimer, Slot
+from PySide6.QtGui import QGuiApplication, QUndoStack
+from PySide6.QtWidgets import (QApplication, QDockWidget, QFileDialog, QLabel, QMainWindow, QMessageBox,
                                QProgressBar, QPushButton, QSplitter, QVBoxLayout, QWidget)
-
-from brdflab.gui.export_dialog import export_dialog
 
 from brdflab import workspace as ws_ops
 from brdflab.lighting.envmap import load_environment
 from brdflab.errors import BRDFLabError
-from brdflab.fitting.auto import AutoProgress, Ladder, chosen_fitting
-from brdflab.fitting.lm import FitOptions, FitProgress, FitResult, material_from_lobes
-from brdflab.fitting.stored import fitting_of
-from brdflab.io.mesh import FORMATS as MESH_FORMATS
-from brdflab.io.mesh import default_mesh, load_mesh
+from brdflab.fitting.auto import Ladder
+from brdflab.fitting.lm import material_from_lobes
+from brdflab.io.mesh import default_mesh
 from brdflab.io.resources import data_dir
 from brdflab.sources.measured import MeasuredTable
-from brdflab.sources.proxy import measured_sampler, proxy_lobes
-from brdflab.workspace import OPEN_FILTER, Workspace
-from brdflab.models.files.library import MissingModelFile
+from brdflab.workspace import Workspace
 
 MODEL_FILTER = "Model files (*.brdf *.xml);;BRDF Explorer (*.brdf);;BRDFLab model descriptors (*.xml);;All files (*)"
-from brdflab.io.atomic import atomic_write
 from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.auto_ladder import AutoLadderPanel
 from brdflab.gui.auto_lighting import chosen, choose_job
 from brdflab.gui.background import AutoFitProcess, FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
+from brdflab.gui.commands import ReplaceMaterial
+from brdflab.gui.documents import DocumentFiles
+from brdflab.gui.fit_control import FitControl
+from brdflab.gui.window_actions import WindowActions
 from brdflab.gui.fields import FieldGuard
 from brdflab.gui.window_layout import ColumnKeeper
-from brdflab.gui.probe_open import MAP_FILTER, ask_back_half, front_and_back
 from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
                                 MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries,
                                 refine_job, scrolling)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
 from brdflab.gui.panels import sh_table_request
-from brdflab.models import get_model
 
 LAYOUT_VERSION = 5  # 2: the lobe viewer became the central view; 3: the Charts dock; 4: the Auto ladder dock;
 # 5: the left column the window's full height
-LADDER_HEIGHT = 400  # pixels: the Auto ladder dock's reason and a dozen candidates
-CONTROLS_HELP = """<h3>Mouse and keyboard</h3>
-<table cellspacing=4>
-<tr><td><b>Lobe viewer</b></td><td></td></tr>
-<tr><td>drag (left button)</td><td>orbit the camera</td></tr>
-<tr><td>wheel</td><td>zoom</td></tr>
-<tr><td>right-drag or Shift + drag</td><td>move the incident direction (θi, φi)</td></tr>
-<tr><td><b>Object view</b></td><td></td></tr>
-<tr><td>drag (left button)</td><td>orbit the camera</td></tr>
-<tr><td>wheel</td><td>zoom</td></tr>
-<tr><td><b>Parameters</b></td><td>drag a slider or type a value and press Enter; Ctrl+Z / Ctrl+Shift+Z undo and redo
-(in a field too, once its value is entered)</td></tr>
-<tr><td><b>Panels</b></td><td>the wheel scrolls a panel; a field takes the wheel only once clicked</td></tr>
-<tr><td><b>Fitting</b></td><td>Ctrl+F fits, Ctrl+Shift+F fits Auto, Esc stops (the best result so far is kept)</td></tr>
-<tr><td><b>Files</b></td><td>Ctrl+O open, Ctrl+S save, drop a material, mesh or map on the window</td></tr>
-<tr><td><b>Layout</b></td><td>drag the bar between the two views; View → Reset layout</td></tr>
-</table>"""
 DEFAULT_MESH = "meshes/spot.obj"
 DEFAULT_ENV = "envmaps/venice_sunset_1k.hdr"
-MAX_RECENT = 8
 RING_STEP = 2.0  # a measured table whose neighbouring θh bins differ this much shows them as rings
 
 
@@ -98,46 +74,7 @@ class _ViewsArea(QWidget):
         self.banner.raise_()
 
 
-class ReplaceMaterial(QUndoCommand):
-    """Every material edit swaps whole materials, so undo is exact."""
-
-    def __init__(self, window: "MainWindow", old, new, text: str, merge_key=None) -> None:
-        super().__init__(text)
-        self.window, self.old, self.new, self.merge_key = window, old, new, merge_key
-
-    def id(self) -> int:
-        return 1 if self.merge_key is not None else -1
-
-    def mergeWith(self, other) -> bool:  # dragging a slider is one undo step
-        if isinstance(other, ReplaceMaterial) and other.merge_key == self.merge_key:
-            self.new = other.new
-            return True
-        return False
-
-    def redo(self) -> None:
-        self.window.workspace.replace_material(self.new)
-        self.window.material_changed()
-
-    def undo(self) -> None:
-        self.window.workspace.replace_material(self.old)
-        self.window.material_changed()
-
-
-class ReplaceFittings(QUndoCommand):
-    def __init__(self, window: "MainWindow", old: tuple, new: tuple, text: str) -> None:
-        super().__init__(text)
-        self.window, self.old, self.new = window, old, new
-
-    def redo(self) -> None:
-        self.window.workspace.replace_fittings(list(self.new[0]), self.new[1])
-        self.window.fittings_changed()
-
-    def undo(self) -> None:
-        self.window.workspace.replace_fittings(list(self.old[0]), self.old[1])
-        self.window.fittings_changed()
-
-
-class MainWindow(QMainWindow):
+class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
     def __init__(self, settings: QSettings | None = None) -> None:
         super().__init__()
         self._field_guard = FieldGuard(self._shortcut_texts, self)  # first: it sees every field polished
@@ -355,71 +292,6 @@ class MainWindow(QMainWindow):
         self._load("model", path, load_model_file, apply)
 
     # --- set-up ------------------------------------------------------------------------------
-    def _build_menus(self) -> None:
-        file = self.menuBar().addMenu("&File")
-        self.recent_menu = None
-        for text, shortcut, slot in (
-            ("&New analytic material", QKeySequence.New, self.new_material),
-            ("New s&imulated material…", "Ctrl+Shift+N", self.show_simulation),
-            ("&Open…", QKeySequence.Open, self.open_dialog),
-            ("Open &mesh…", "Ctrl+M", self.open_mesh_dialog),
-            ("Open &environment…", "Ctrl+E", self.open_environment_dialog),
-            ("&Save", QKeySequence.Save, self.save),
-            ("Save &As…", QKeySequence.SaveAs, self.save_as),
-            ("Add model from &file…", "", self.add_model_file_dialog),
-            ("Model f&older…", "", self.model_folder_dialog),
-        ):
-            action = QAction(text, self)
-            action.setShortcut(shortcut)
-            action.triggered.connect(slot)
-            file.addAction(action)
-        export = file.addAction("E&xport…")  # the shown fit, else the material (gui/export_dialog.py)
-        export.triggered.connect(lambda: export_dialog(self, self.workspace.fitted() or self.workspace.original(),
-                                                       env=self.object_view.renderer.environment))
-        for text, view in (("Export lobe &image…", self.lobe_view), ("Export &object image…", self.object_view)):
-            action = file.addAction(text)
-            action.triggered.connect(lambda _=False, v=view: self.export_image_dialog(v))
-        self.recent_menu = file.addMenu("Recent files")
-        file.addSeparator()
-        quit_action = QAction("&Quit", self)
-        quit_action.setShortcut(QKeySequence.Quit)
-        quit_action.triggered.connect(self.close)
-        file.addAction(quit_action)
-        edit = self.menuBar().addMenu("&Edit")
-        undo = self.undo_stack.createUndoAction(self, "&Undo")
-        undo.setShortcut(QKeySequence.Undo)
-        redo = self.undo_stack.createRedoAction(self, "&Redo")
-        redo.setShortcut(QKeySequence.Redo)
-        edit.addAction(undo)
-        edit.addAction(redo)
-        fit_menu = self.menuBar().addMenu("F&it")
-        run = QAction("&Fit", self)
-        run.setShortcut("Ctrl+F")
-        run.triggered.connect(self.fitting._request)
-        stop = QAction("&Stop", self)
-        stop.setShortcut("Esc")
-        stop.triggered.connect(self.stop_fit)
-        auto = QAction("&Auto", self)
-        auto.setShortcut("Ctrl+Shift+F")
-        auto.triggered.connect(self.fitting._request_auto)
-        fit_menu.addAction(run)
-        fit_menu.addAction(auto)
-        fit_menu.addAction(stop)
-        fit_menu.addAction("Auto &ladder", self.show_ladder)
-        view = self.menuBar().addMenu("&View")
-        for dock in self._docks.values():
-            view.addAction(dock.toggleViewAction())
-        view.addSeparator()
-        view.addAction("&Reset layout", self.reset_layout)
-        help_menu = self.menuBar().addMenu("&Help")
-        help_menu.addAction("&Mouse and keyboard", self.show_controls_help).setShortcut(QKeySequence.HelpContents)
-        self._update_recent()
-
-    def _shortcut_texts(self) -> set[str]:
-        """The key sequences (as text) of the window's menu actions: a number field leaves them to the window."""
-        return {k.toString() for menu in self.menuBar().findChildren(QMenu) for a in menu.actions()
-                for k in a.shortcuts() if not k.isEmpty()}
-
     def _fit_screen(self) -> None:
         """First start: the default size, shrunk to the screen's free area (a 1366 × 768 laptop)."""
         screen = self.screen().availableGeometry() if self.screen() else None
@@ -468,37 +340,6 @@ class MainWindow(QMainWindow):
         if not floating and not self._restoring_layout:
             dock.raise_()
 
-    def show_controls_help(self) -> None:
-        box = QMessageBox(QMessageBox.Information, "BRDFLab — controls", CONTROLS_HELP, QMessageBox.Ok, self)
-        box.setAttribute(Qt.WA_DeleteOnClose)
-        box.open()
-
-    def export_image_dialog(self, view) -> None:
-        name = "lobe" if view is self.lobe_view else "object"
-        path, _ = QFileDialog.getSaveFileName(self, f"Export {name} image", str(Path(self._folder("image")) / f"{name}.png"),
-                                              "PNG image (*.png);;JPEG image (*.jpg)")
-        if path:
-            self.export_image(view, Path(path))
-
-    def export_image(self, view, path: Path) -> bool:
-        """What the view shows, at its pixel size, saved atomically (PNG or JPEG by extension)."""
-        fmt = "JPG" if path.suffix.lower() in (".jpg", ".jpeg") else "PNG"
-        image = view.grabFramebuffer()
-        data = QByteArray()
-        buffer = QBuffer(data)
-        buffer.open(QIODevice.WriteOnly)
-        if image.isNull() or not image.save(buffer, fmt):
-            self.show_error(f"{path}: the view has no image to export")
-            return False
-        try:
-            atomic_write(path, bytes(data))
-        except BRDFLabError as e:  # one line naming the file and the problem
-            self.show_error(str(e))
-            return False
-        self.settings.setValue("folders/image", str(path.parent))
-        self.statusBar().showMessage(f"Exported {path}", 5000)
-        return True
-
     def _connect(self) -> None:
         e = self.editor
         e.parameter_edited.connect(lambda k, n, v: self._edit(ws_ops.with_parameter(self.workspace.editable(), k, n, v),
@@ -543,26 +384,6 @@ class MainWindow(QMainWindow):
         self._push_object_source()
 
     # --- workspace ------------------------------------------------------------------------------
-    def set_workspace(self, workspace: Workspace) -> None:
-        if self._thread is not None and workspace is not self._fit_owner:
-            self._thread.cancel.set()  # the running fit belongs to the document being closed
-            self.fitting.status.setText("stopping the run of the closed document…")
-        if workspace is not self.workspace:  # nothing of the closed document stays drawn
-            self._fit_history, self._candidate = [], None
-            if self._thread is None:
-                self.fitting.status.setText("")  # nor said: its last run's result
-            self.plots.new_document(workspace.title.rstrip(" *"))
-        self.workspace = workspace
-        self.locate_button.setVisible(workspace.data_missing)
-        self._unsaved_at_clean = workspace.dirty
-        self.undo_stack.clear()
-        self.material_changed()
-        self.fittings_changed()
-        self._show_own_ladder()
-        self._binning_note()
-        for message in workspace.messages:
-            self.statusBar().showMessage(message, 10000)
-
     def _binning_note(self) -> None:
         """Rings around a measured highlight are the data's θh bins: said over the views."""
         source = self.workspace.original()
@@ -898,217 +719,6 @@ class MainWindow(QMainWindow):
         s, r = self.object_view.settings, self.object_view.renderer
         return s.mode, s.samples, r.sh_order if s.mode == "sh" else None
 
-    # --- files ------------------------------------------------------------------------------------
-    def maybe_save(self) -> bool:
-        """True when it is fine to discard the current document."""
-        if not self.workspace.dirty:
-            return True
-        answer = QMessageBox.question(self, "BRDFLab", f"Save changes to {self.workspace.title.rstrip(' *')}?",
-                                      QMessageBox.Save | QMessageBox.Discard | QMessageBox.Cancel)
-        if answer == QMessageBox.Save:
-            return self.save()
-        return answer == QMessageBox.Discard
-
-    def new_material(self) -> None:
-        if self.maybe_save():
-            self.set_workspace(Workspace.new())
-
-    def show_simulation(self) -> None:
-        """The Simulation dock (brdflab.gui.simulated), on the open simulated material if any."""
-        from brdflab.gui.simulated import show_simulation_dock
-
-        show_simulation_dock(self)
-
-    # loading happens in a worker thread; `loading` is true until the result is applied
-    @property
-    def loading(self) -> bool:
-        return bool(self._loads)
-
-    def _load(self, what: str, path: Path, work, apply) -> None:
-        """Run work(path) off the GUI thread, then apply(result) here (errors: a dialog)."""
-        future = self._loader.submit(work, Path(path))
-        self._loads.append(future)
-        self.statusBar().showMessage(f"opening {what} {path}…")
-        self.load_progress.setVisible(True)
-
-        def poll():
-            if not future.done():
-                QTimer.singleShot(30, poll)
-                return
-            self._loads.remove(future)
-            self.load_progress.setVisible(bool(self._loads))
-            try:
-                result = future.result()
-            except MissingModelFile as e:
-                self.locate_model(Path(path), e)
-                return
-            except BRDFLabError as e:
-                self.show_error(str(e))
-                return
-            except Exception as e:  # a file that breaks a reader must not break the window
-                self.show_error(f"{path}: cannot open: {type(e).__name__}: {e}")
-                return
-            apply(result)
-
-        QTimer.singleShot(0, poll)
-
-    def open_path(self, path: Path) -> None:
-        def apply(workspace: Workspace) -> None:
-            self._remember(Path(path))
-            self.set_workspace(workspace)
-            if not workspace.messages:  # never hide what set_workspace just reported
-                self.statusBar().showMessage(f"opened {path}", 5000)
-
-        self._load("material", path, _open_with_proxy, apply)
-
-    def _ask_and_open(self, title: str, kind: str, file_filter: str, opener) -> None:
-        """A file dialog that starts in (and remembers) the last folder of its kind."""
-        name, _ = QFileDialog.getOpenFileName(self, title, self._folder(kind), file_filter)
-        if name:
-            self.settings.setValue(f"folders/{kind}", str(Path(name).parent))
-            opener(Path(name))
-
-    def locate_data_dialog(self) -> None:
-        ref = self.workspace.document.material
-        name, _ = QFileDialog.getOpenFileName(self, f"Locate {Path(getattr(ref, 'name', '')).name}",
-                                              self._folder("open"), OPEN_FILTER)
-        if name:
-            self.locate_data(Path(name))
-
-    def locate_data(self, path: Path) -> None:
-        """Give a measured material whose data file is missing the file found at `path`."""
-        try:
-            self.workspace.locate_data(path)
-        except BRDFLabError as e:
-            self.show_error(str(e))
-            return
-        self.undo_stack.resetClean()  # the document now differs from its file
-        self.set_workspace_keeping_history()
-
-    def set_workspace_keeping_history(self) -> None:
-        ws = self.workspace
-        self._unsaved_at_clean = True
-        self.locate_button.setVisible(ws.data_missing)
-        ws.guess = None
-        self.material_changed()
-        self.fittings_changed()
-        self._binning_note()
-        for message in ws.messages:
-            self.statusBar().showMessage(message, 10000)
-
-    def open_dialog(self) -> None:
-        if self.maybe_save():
-            self._ask_and_open("Open", "open", OPEN_FILTER, self.open_path)
-
-    def open_mesh(self, path: Path) -> None:
-        def apply(mesh) -> None:
-            self.object_view.when_ready(lambda: self.object_view.renderer.set_mesh(mesh))
-            self.object_view.restart()
-            self.statusBar().showMessage(f"mesh {path}: {mesh.n_vertices:,} vertices", 5000)
-
-        self._load("mesh", path, load_mesh, apply)
-
-    def open_mesh_dialog(self) -> None:
-        self._ask_and_open("Open mesh", "mesh", "Meshes (" + " ".join(f"*{e}" for e in MESH_FORMATS) + ")", self.open_mesh)
-
-    def open_environment(self, path: Path, back: Path | None = None) -> None:
-        """Open a map in the object view's map layout (a pair: `path` the front, `back` the back half)."""
-        layout = "dual-paraboloid" if back is not None else self.object_controls.env_layout.currentText()
-
-        def apply(env) -> None:
-            self._env_files = (Path(path), back)
-            self.object_view.when_ready(lambda: self.object_view.renderer.set_environment(env))
-            self.object_view.restart()
-            self._request_auto_lighting()
-            self._map_note(env)
-            self.statusBar().showMessage(f"environment {env.path} ({env.layout})", 5000)
-
-        self._load("environment", path, lambda p: load_environment(p, layout, back), apply)
-
-    def open_environment_dialog(self) -> None:
-        """One map, or both halves of a dual-paraboloid pair (multiple selection)."""
-        names, _ = QFileDialog.getOpenFileNames(self, "Open environment (a pair: select both halves)",
-                                                self._folder("env"), MAP_FILTER)
-        if not names:
-            return
-        self.settings.setValue("folders/env", str(Path(names[0]).parent))
-        try:
-            path, back = front_and_back(names)
-        except BRDFLabError as e:
-            self.show_error(str(e))
-            return
-        if back is not None:
-            self.object_controls.env_layout.setCurrentText("dual-paraboloid")
-        elif self.object_controls.env_layout.currentText() == "dual-paraboloid":
-            back = ask_back_half(self, path)
-        self.open_environment(path, back)
-
-    def _reopen_environment(self) -> None:
-        """The map shown, read again in the layout just chosen."""
-        path, back = self._env_files
-        if self.object_controls.env_layout.currentText() != "dual-paraboloid":
-            back = None
-        elif back is None:
-            back = ask_back_half(self, path)
-        self.open_environment(path, back)
-
-    def save(self) -> bool:
-        if self.workspace.path is None:
-            return self.save_as()
-        return self._save_to(self.workspace.path)
-
-    def save_as(self) -> bool:
-        name, _ = QFileDialog.getSaveFileName(self, "Save material", self._folder("save"), "BRDFLab materials (*.xml)")
-        if not name:
-            return False
-        path = Path(name if name.lower().endswith(".xml") else name + ".xml")
-        self.settings.setValue("folders/save", str(path.parent))
-        return self._save_to(path)
-
-    def _save_to(self, path: Path) -> bool:
-        try:
-            self.workspace.save(path)
-        except BRDFLabError as e:
-            self.show_error(str(e))
-            return False
-        self._unsaved_at_clean = False
-        self.undo_stack.setClean()
-        self._remember(path)
-        self._refresh_text()
-        self.statusBar().showMessage(f"saved {path}", 5000)
-        return True
-
-    def _folder(self, kind: str) -> str:
-        return str(self.settings.value(f"folders/{kind}", str(Path.home())))
-
-    def _remember(self, path: Path) -> None:
-        recent = [p for p in (self.settings.value("recent") or []) if p != str(path)]
-        self.settings.setValue("recent", [str(path)] + recent[: MAX_RECENT - 1])
-        self._update_recent()
-
-    def _update_recent(self) -> None:
-        if self.recent_menu is None:
-            return
-        self.recent_menu.clear()
-        for p in self.settings.value("recent") or []:
-            action = self.recent_menu.addAction(p)
-            action.triggered.connect(lambda _=False, p=p: self.maybe_save() and self.open_path(Path(p)))
-
-    def dragEnterEvent(self, event) -> None:
-        if event.mimeData().hasUrls():
-            event.acceptProposedAction()
-
-    def dropEvent(self, event) -> None:
-        for url in event.mimeData().urls():
-            path = Path(url.toLocalFile())
-            ext = path.suffix.lower()
-            if ext in MESH_FORMATS:
-                self.open_mesh(path)
-            elif ext in (".hdr", ".exr"):
-                self.open_environment(path)
-            elif self.maybe_save():
-                self.open_path(path)
-
     def closeEvent(self, event) -> None:
         if not self.maybe_save():
             event.ignore()
@@ -1146,193 +756,3 @@ class MainWindow(QMainWindow):
         box = QMessageBox(QMessageBox.Warning, "BRDFLab", message, QMessageBox.Ok, self)
         box.setAttribute(Qt.WA_DeleteOnClose)
         box.open()  # not modal-blocking: the program keeps running
-
-    # --- fitting -------------------------------------------------------------------------------
-    def _source_to_fit(self):
-        """The source a new fit or Auto run would fit; None (and said) when one is running
-        or the measured data is missing."""
-        if self._thread is not None:
-            return None
-        source = self.workspace.original()
-        if source is None:
-            self.show_error("nothing to fit: the measured data of this material is missing")
-        return source
-
-    def start_fit(self, lobes: list, combination: str, metric: str, kind: str, size: int, start=None) -> None:
-        source = self._source_to_fit()
-        if source is None:
-            return
-        try:
-            guess = self.workspace.guess
-            if start is None and self.workspace.analytic is None and guess is not None and \
-                    guess.lobe_models() == lobes and guess.combination == combination:
-                start = guess.copy()  # the guess the user edited
-            if start is None:
-                start = material_from_lobes(lobes, combination, source.n_channels)
-        except BRDFLabError as e:
-            self.show_error(str(e))
-            return
-        options = FitOptions(metric=metric)
-        # the samples are drawn and the fit runs in a worker process: the window stays live
-        self._start_worker(FitProcess(start, source, {"kind": kind, "size": size, "density": 45}, options, self),
-                           lambda n: f"fitting {n} samples…", self._fit_progress, self._fit_finished,
-                           "starting the fit…")
-
-    def _start_worker(self, thread, started: Callable[[int], str], progress: Callable, finished: Callable,
-                      starting: str) -> None:
-        """Run a fit or an Auto run's worker for the document open now, the panel showing it."""
-        self._fit_owner = self.workspace
-        self._fit_history = []
-        self._thread = thread
-        thread.started.connect(lambda n: self.fitting.status.setText(started(n)))
-        thread.progress.connect(progress)
-        thread.finished.connect(finished)
-        thread.failed.connect(self._fit_failed)
-        thread.start()
-        self.fitting.set_running(True)
-        self.fitting.status.setText(starting)
-
-    def stop_fit(self) -> None:
-        if self._thread is not None:
-            self._thread.cancel.set()
-            self.fitting.status.setText("stopping Auto: keeping the pick among the candidates fully fitted…"
-                                        if isinstance(self._thread, AutoFitProcess) else
-                                        "stopping: scoring the best parameters so far on every sample…")
-
-    def _fit_progress(self, p: FitProgress) -> None:
-        if self._fit_owner is not self.workspace:
-            return  # a report of a fit of a closed document: no view draws it
-        self._candidate = p.material
-        self._fit_history.append((p.iteration, p.error))
-        if not self._plot_timer.isActive():  # the convergence plot follows the fit, coalesced
-            self._plot_timer.start()
-        self.fitting.status.setText(f"{p.stage}: iteration {p.iteration}, {self._thread.options.metric} error {p.error:.6g}")
-        self._push_lobe_sources()
-        if not self._fit_view_timer.isActive():
-            self._fit_view_timer.start()
-
-    def _show_fit_progress_on_object(self) -> None:
-        if self._candidate is not None and self.object_controls.shown.currentText() != "original":
-            self._push_object_source()
-
-    def _end_fit(self) -> None:
-        self.fitting.set_running(False)
-        self._candidate = None
-        self._thread = None
-
-    def _store_in_owner(self, fitting, what: str) -> Workspace | None:
-        """End the running fit or Auto run and store its fitting, undoably, in the document it
-        started on; None (nothing stored) when that document was closed meanwhile."""
-        owner, self._fit_owner = self._fit_owner, None
-        self._end_fit()
-        if owner is not self.workspace:  # its document was closed: never store it in another
-            self.statusBar().showMessage(f"the {what.lower()} of {owner.title.rstrip(' *')} was stopped: its document "
-                                         "was closed", 10000)
-            self.fitting.status.setText("")  # the panel tells of the shown document's runs only
-            return None
-        old = (tuple(self.workspace.document.fittings), self.workspace.shown_fit)
-        new_list = list(old[0]) + [fitting]
-        self.undo_stack.push(ReplaceFittings(self, old, (tuple(new_list), len(new_list) - 1), what))
-        return owner
-
-    def _fit_finished(self, result: FitResult) -> None:
-        if self._store_in_owner(fitting_of(result), "Fit") is None:
-            return
-        self.fitting.status.setText(f"{result.metric} error {result.error:.6g} after {result.iterations} iterations, "
-                                    f"{result.seconds:.2f} s ({result.status})")
-
-    def _fit_failed(self, message: str) -> None:
-        self._fit_owner = None
-        self._end_fit()
-        self.fitting.status.setText(message)
-        self.show_error(message)
-        self.fittings_changed()
-
-    def start_auto(self, settings: dict) -> None:
-        """Auto (fitting/auto.py) on the source's samples, in a worker process like a fit; the
-        pick is stored as a new fitting of the document it started on, the ladder shown."""
-        source = self._source_to_fit()
-        if source is None:
-            return
-        try:
-            for name in settings["models"] or []:
-                get_model(name)  # an unknown name is said before any fit
-        except BRDFLabError as e:
-            self.show_error(f"Auto models: {e}")
-            return
-        self._start_worker(AutoFitProcess(source, settings, self),
-                           lambda n: f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…",
-                           self._auto_progress, self._auto_finished, "starting Auto…")
-
-    def _auto_progress(self, p: AutoProgress) -> None:
-        if self._fit_owner is not self.workspace:
-            return  # a report of a run of a closed document
-        bar = self.fitting.progress
-        bar.setRange(0, p.expected)
-        bar.setValue(p.step)
-        bar.setFormat("candidate %v of about %m")
-        self.fitting.status.setText(f"Auto: {p.stage} {p.candidate}, held back {p.error:.4g} "
-                                    f"(best so far {p.best_error:.4g})")
-
-    def _auto_finished(self, ladder: Ladder) -> None:
-        owner = self._store_in_owner(chosen_fitting(ladder), "Auto fit")
-        if owner is None:
-            return
-        self._auto_ladder = (owner, ladder)
-        self._show_own_ladder()
-        self.show_ladder()
-        chosen = ladder.chosen
-        stopped = " (cancelled)" if ladder.reason.startswith("cancelled") else ""
-        self.fitting.status.setText(f"Auto chose {'+'.join(('Lambertian', *chosen.lobes))}: held-back "
-                                    f"{ladder.metric} error {chosen.error_held_back:.5g}, {ladder.seconds:.1f} s"
-                                    f"{stopped}; see the Auto ladder")
-
-    def _show_own_ladder(self) -> None:
-        """The ladder dock shows the last Auto run of the shown document only."""
-        own = self._auto_ladder is not None and self._auto_ladder[0] is self.workspace
-        self.ladder.show_ladder(self._auto_ladder[1] if own else None)
-        self.fitting.ladder_button.setEnabled(own)
-
-    def show_ladder(self) -> None:
-        """The Auto ladder dock in front, tall enough for a ladder (the views keep the rest)."""
-        dock = self._docks["Auto ladder"]
-        dock.show()
-        dock.raise_()
-        if not dock.isFloating() and dock.height() < LADDER_HEIGHT:
-            self.resizeDocks([dock], [min(LADDER_HEIGHT, self.height() // 2)], Qt.Vertical)
-
-    def _select_fit(self, index: int) -> None:
-        self.workspace.shown_fit = index
-        self._push_lobe_sources()
-        self._push_object_source()
-        self._plot_timer.start()
-
-    def _refit(self, index: int) -> None:
-        start = self.workspace.document.fittings[index].material.copy()
-        f = self.fitting
-        self.start_fit([], start.combination, f.metric_box.currentText(), f.sample_kind.currentText(), f.sample_size.value(), start)
-
-    def _promote(self, index: int) -> None:
-        material = self.workspace.document.fittings[index].material.copy()
-        if self.workspace.analytic is None:
-            # measured data stay with their fits: the fit becomes a new analytic document
-            if self.maybe_save():
-                workspace = Workspace.new()
-                workspace.document.material = material
-                workspace.dirty = True
-                self.set_workspace(workspace)
-            return
-        self._edit(material, "Make fit the main material")
-
-
-def _open_with_proxy(path: Path) -> Workspace:
-    """Open a file in the loader thread, and fit a measured source's proxy and build its
-    sampling tables there too: the object view fitting it when first drawing the source held
-    the GUI thread 0.25–0.44 s (the tables take another 0.3 s)."""
-    workspace = Workspace.open(path)
-    if workspace.source is not None and not isinstance(workspace.source, ws_ops.AnalyticMaterial):
-        proxy_lobes(workspace.source)
-        measured_sampler(workspace.source).ensure_all()
-    if isinstance(workspace.source, MeasuredTable):
-        workspace.source.theta_h_step  # noqa: B018  (cached here, off the GUI thread)
-    return workspace
