@@ -594,53 +594,6 @@ CASES: dict[str, Case] = {
     "names-shadow-info": Case(["info", "mat/names_shadow.xml", "--json"], names="shadow",
                               words=("outside the material's folder", "folder policy"), leaks=SHADOW_DIMS),
     "names-fifo-info": Case(["info", "names_fifo.xml"], names="fifo.slice", words=("not a regular file", "fifo")),
-    # --- issue 37 §2: model files ---
-    # loops the driver would end silently: refused (never a wrong value), with the reason
-    "model-loop-endless": Case(E("loop_endless.brdf"), words=("loops run past 65,000 steps",)),
-    "model-loop-1e5": Case(E("loop_1e5.brdf"), words=("loops run past 65,000 steps",)),
-    "model-loop-nested": Case(E("loop_nested.brdf"), words=("loops run past 65,000 steps",)),
-    "model-while-true-empty": Case(E("while_true.brdf"), words=("loops run past 65,000 steps",)),
-    "model-loop-fine": Case(E("loop_fine.brdf"), status=0),
-    # GLSL's gl_ variables belong to the lab's shaders: refused by eval and render alike (render had a traceback)
-    "model-gl-position-eval": Case(E("position.brdf"), words=("line 7", "gl_position")),
-    "model-gl-position-render": Case(R("position.brdf"), words=("line 7", "gl_position")),
-    # arrays read before compiling (10⁸ floats took 40 s and 2.4 GB to be refused, 10⁶ 35 s)
-    "model-array-1e8": Case(E("array_1e8.brdf"), words=("line 7", "100,000,000 elements")),
-    "model-array-1e6-const": Case(E("array_1e6.brdf"), words=("1,000,000 elements",)),
-    "model-array-cast": Case(E("array_cast.brdf"), words=("100,000,000 elements",)),
-    "model-loop-in-define": Case(E("loop_in_define.brdf"), words=("line 6", "inside a #define")),
-    "model-array-in-define": Case(E("array_in_define.brdf"), words=("line 6", "100,000,000 elements")),
-    # two files of one model name in the folders a command names: both skipped, said, the rest usable
-    "models-folder-twins": Case(["models", "--models", "twins_a", "--models", "twins_b"], status=0, names="twin.brdf",
-                                words=("all are skipped",)),
-    "models-folder-twins-eval": Case(E("twins_a/good.brdf", "--models", "twins_a", "--models", "twins_b"), status=0,
-                                     names="twin.brdf", words=("all are skipped",)),
-    # --- issue 37 §1 ---
-    # a real probe's size, resampled to lat-long within the memory limit by every environment mode
-    **{f"probe-1000-{mode}": Case(R(str(FIG2), "--mode", mode, "--env", "probe_1000.exr"), status=0)
-       for mode in ("fis", "sh", "prefiltered")},
-    # exports: the format's own name, never over the source or over a file the export did not write
-    "export-over-source": Case(["export", "paint.xml", "--format", "mitsuba", "--out", "paint_link.xml"],
-                               names="paint_link.xml", words=("never replaces its source",)),
-    "export-glsl-named-txt": Case(["export", str(FIG2), "--format", "glsl", "--out", "fig2.txt"], names="fig2.txt",
-                                  words=("named .glsl",)),
-    "export-merl-named-xml": Case(["export", "paint.xml", "--format", "merl", "--out", "paint_table.xml"],
-                                  names="paint_table.xml", words=("named .binary",)),
-    "export-map-over-a-file": Case(["export", "paint.xml", "--format", "mitsuba", "--out", "own.xml"],
-                                   names="own_env.exr", words=("not the map of a scene being replaced",)),
-    # files a material names that are there but refused: the real reason, never "missing"; info as every command
-    "modelfile-outside-no-checksum": Case(["info", "mat/model_outside_no_sum.xml"], names="minnaert.brdf",
-                                          words=("no sha256", "folder policy")),
-    "modelfile-shadow-bad-checksum": Case(["info", "mat/model_shadow_bad_sum.xml"], names="shadow",
-                                          words=("does not match", "folder policy"), read=("outside/shadow",)),
-    "modelfile-fifo": Case(["info", "mat/model_fifo.xml"], names="fifo.brdf", words=("not a regular file", "fifo")),
-    "modelfile-device": Case(["info", "mat/model_device.xml"], names="dev.brdf",
-                             words=("not a regular file", "character device")),
-    "modelfile-link-out": Case(["info", "mat/model_link_out.xml"], names="shadow_link.brdf",
-                               words=("through a link", "folder policy"), read=("outside/shadow",)),
-    "names-shadow-info": Case(["info", "mat/names_shadow.xml", "--json"], names="shadow",
-                              words=("outside the material's folder", "folder policy"), leaks=SHADOW_DIMS),
-    "names-fifo-info": Case(["info", "names_fifo.xml"], names="fifo.slice", words=("not a regular file", "fifo")),
 }
 
 
