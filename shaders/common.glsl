@@ -132,3 +132,13 @@ vec2 precise_atan(vec2 y, vec2 x) { return vec2(precise_atan(y.x, x.x), precise_
 vec3 precise_atan(vec3 y, vec3 x) { return vec3(precise_atan(y.x, x.x), precise_atan(y.y, x.y), precise_atan(y.z, x.z)); }
 vec2 precise_atan(vec2 t) { return vec2(precise_atan(t.x), precise_atan(t.y)); }
 vec3 precise_atan(vec3 t) { return vec3(precise_atan(t.x), precise_atan(t.y), precise_atan(t.z)); }
+
+// A NaN (a file model's value where it is undefined, or past its loop bound).
+float nan_value() { return uintBitsToFloat(0x7fc00000u); }
+// w turned by angle a about x (k = 1, 2: ±a) or y (k = 3, 4: ±a); k = 0: w itself. A file
+// model's limit at a point where its value is NaN is the mean over k = 1..4 (models/files/model.py).
+vec3 nudged(vec3 w, int k, float a) {
+    if (k == 0) return w;
+    float s = (k == 1 || k == 3) ? sin(a) : -sin(a), c = cos(a);
+    return k <= 2 ? vec3(w.x, c * w.y - s * w.z, s * w.y + c * w.z) : vec3(c * w.x + s * w.z, w.y, -s * w.x + c * w.z);
+}

@@ -43,12 +43,8 @@ def add_file_model(model: LobeModel) -> LobeModel:
     new contents replaces it (an edited file). Two different files defining one model name
     are refused, naming both. A file model named like a built-in (BRDFLab's own Ward.xml)
     is kept beside it as "NAME [FILE]", so `Ward` stays the built-in."""
-    name = model.name
+    name = model.name = registry_name(model)
     held = _MODELS.get(name)
-    if held is not None and is_builtin(held):
-        name = f"{name} [{model.origin.path.name}]"
-        model.name = name
-        held = _MODELS.get(name)
     if held is not None:
         if held.origin.sha256 == model.origin.sha256:
             return held
@@ -57,6 +53,13 @@ def add_file_model(model: LobeModel) -> LobeModel:
                                f"{model.origin.path} (rename one: a model's name must be unique)")
     _MODELS[name] = model
     return model
+
+
+def registry_name(model: LobeModel) -> str:
+    """The name a file model is registered under: its own, or "NAME [FILE]" where a built-in
+    has its name."""
+    held = _MODELS.get(model.name)
+    return f"{model.name} [{model.origin.path.name}]" if held is not None and is_builtin(held) else model.name
 
 
 def file_models() -> list[LobeModel]:

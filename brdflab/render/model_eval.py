@@ -7,14 +7,16 @@ pairs goes through a vertex shader that calls the model's `brdf_<id>` and writes
 by transform feedback. Parameters that are the same for every pair are uniforms; per-pair
 parameters ride along as vertex attributes.
 
-`check` compiles a model and evaluates it on probe pairs in a child process with a time
-limit, so that a file whose GLSL never finishes is refused instead of hanging the lab.
+`check` compiles a model and evaluates it on probe pairs in a child process with a CPU-time
+limit, so that a file whose GLSL never finishes is refused instead of hanging the lab (the
+file's loops are bounded by the GLSL itself: glsl_text.guarded_loops).
 """
 
 from __future__ import annotations
 
 import json
 import re
+import signal
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -24,10 +26,13 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.models.files import backend
+from brdflab.models.files.glsl_text import OVER
+from brdflab.models.files.limits import MAX_LOOP_STEPS
 from brdflab.render.glsl import GLSL_VERSION, MAX_PARAMS, shader_source
 
 BATCH = 1 << 16  # pairs per draw
-CHECK_SECONDS = 30.0  # a probe evaluation that takes longer is a runaway loop
+CHECK_CPU_SECONDS = 30  # the probe child's CPU time (RLIMIT_CPU): the same budget on an idle or a loaded machine
+HANG_SECONDS = 120.0  # wall clock, for a child that waits without computing
 _LOG_LINE = re.compile(r"(\d+):(\d+)\((\d+)\):\s*(?:error|warning)?:?\s*(.*)")
 
 
@@ -38,14 +43,15 @@ def _vertex_shader(model, per_pair: bool) -> tuple[str, int]:
         head += "".join(f"in vec4 in_p{k};\n" for k in range(MAX_PARAMS // 4))
     else:
         head += f"uniform float u_p[{MAX_PARAMS}];\n"
-    head += f"out vec3 out_f;\n#define NP {MAX_PARAMS}\n" + shader_source("common.glsl") + "\n"
+    head += f"out vec3 out_f;\nout float out_over;\n#define NP {MAX_PARAMS}\n" + shader_source("common.glsl") + "\n"
     start = head.count("\n") + 1
     source = model.glsl_source()
     gid = model.glsl_id
     value = f"brdf_{gid}_rgb(in_wi, in_wo, p)" if model.colour else f"vec3(brdf_{gid}(in_wi, in_wo, p))"
     fill = ([f"p[{k}] = in_p{k // 4}[{k % 4}];" for k in range(MAX_PARAMS)] if per_pair
             else [f"p[{k}] = u_p[{k}];" for k in range(MAX_PARAMS)])
-    main = "void main() {\n    float p[NP];\n    " + " ".join(fill) + f"\n    out_f = {value};\n}}\n"
+    main = ("void main() {\n    float p[NP];\n    " + " ".join(fill)
+            + f"\n    out_f = {value};\n    out_over = {gid}_{OVER} ? 1.0 : 0.0;\n}}\n")
     return head + source + main, start
 
 
@@ -88,7 +94,7 @@ class _GlThread:
             ctx = self.context()
             source, start = _vertex_shader(model, per_pair)
             try:
-                prog = ctx.program(vertex_shader=source, varyings=["out_f"])
+                prog = ctx.program(vertex_shader=source, varyings=["out_f", "out_over"])
             except Exception as e:  # moderngl raises plain Exceptions carrying the compiler log
                 raise BRDFLabError(compile_message(model, e, start), getattr(model.origin, "path", None)) from None
             self._programs[key] = prog
@@ -111,7 +117,7 @@ class _GlThread:
             pvals = np.zeros((n, MAX_PARAMS), np.float32)
             for k, v in enumerate(params):
                 pvals[:, k] = np.broadcast_to(np.asarray(v, float), shape).reshape(n)
-        out = np.empty((n, 3), np.float32)
+        out = np.empty((n, 4), np.float32)  # the value, and whether its loops ran past MAX_LOOP_STEPS
         for s in range(0, n, BATCH):
             e = min(n, s + BATCH)
             arrays = [(wi_f[s:e], ["in_wi"], "3f"), (wo_f[s:e], ["in_wo"], "3f")]
@@ -125,14 +131,24 @@ class _GlThread:
                 buffers.append(ctx.buffer(np.ascontiguousarray(data).tobytes()))
                 pad = f"{int(fmt[0]) * 4}x"
                 content.append((buffers[-1], " ".join(fmt if nm in present else pad for nm in names), *present))
-            result = ctx.buffer(reserve=(e - s) * 12)
+            result = ctx.buffer(reserve=(e - s) * 16)
             vao = ctx.vertex_array(prog, content)
             vao.transform(result, mode=moderngl.POINTS, vertices=e - s)
-            out[s:e] = np.frombuffer(result.read(), np.float32).reshape(-1, 3)
+            out[s:e] = np.frombuffer(result.read(), np.float32).reshape(-1, 4)
             for b in buffers + [result]:
                 b.release()
             vao.release()
-        return out.astype(float).reshape(shape + (3,))
+        over = out[:, 3] > 0.0
+        if over.any():
+            k = int(np.argmax(over))
+            raise BRDFLabError(f"its GLSL's loops run past {MAX_LOOP_STEPS:,} steps in one evaluation (e.g. at wi = "
+                               f"{_shown(wi_f[k])}, wo = {_shown(wo_f[k])}): the lab "
+                               "stops them there, so its value would be wrong", getattr(model.origin, "path", None))
+        return out[:, :3].astype(float).reshape(shape + (3,))
+
+
+def _shown(w: np.ndarray) -> list[float]:
+    return np.round(w.astype(float), 3).tolist()
 
 
 class GlslEvaluator:
@@ -140,39 +156,64 @@ class GlslEvaluator:
 
     def __init__(self) -> None:
         self._thread = _GlThread()
-        self._checked: dict[str, str | None] = {}
+        self._checked: dict[str, tuple[str | None, str | None]] = {}  # sha256 → (problem, undefined)
 
     def evaluate(self, model, wi, wo, params) -> np.ndarray:
         return self._thread.run(self._thread.evaluate, model, np.asarray(wi, float), np.asarray(wo, float), params)
 
     def check(self, model) -> None:
-        """Compile and probe-evaluate the model in a child process with a time limit."""
+        """Compile and probe-evaluate the model in a child process with a time limit; where it
+        is undefined goes to `model.undefined`."""
         key = model.origin.sha256
         if key not in self._checked:
             self._checked[key] = probe_in_child(model)
-        if self._checked[key]:
-            raise BRDFLabError(self._checked[key], model.origin.path)
+        found, undefined = self._checked[key]
+        if found:
+            raise BRDFLabError(found, model.origin.path)
+        model.note_undefined(undefined)
 
 
 def probe_command(model) -> list[str]:
     return [sys.executable, "-m", "brdflab.render.model_probe", str(model.origin.path), model.origin.sha256, model.name]
 
 
-def probe_in_child(model) -> str | None:
-    """None if the model's GLSL compiles and evaluates probe pairs to finite values within
-    CHECK_SECONDS in a child process; else the one-line problem."""
-    try:
-        done = subprocess.run(probe_command(model), capture_output=True, text=True, timeout=CHECK_SECONDS)
-    except subprocess.TimeoutExpired:
-        from brdflab.models.files.library import PROBE_PAIRS
+def _limit_cpu(pid: int) -> None:
+    """At most CHECK_CPU_SECONDS of CPU time for a child (then SIGXCPU ends it), set from here
+    (prlimit: a preexec_fn is unsafe in a process with threads, as the lab's is), or less where
+    the lab itself runs under a lower hard limit (which a child cannot raise)."""
+    import resource
 
-        return (f"its GLSL did not finish evaluating {PROBE_PAIRS:,} direction pairs in {CHECK_SECONDS:g} s "
-                "(a loop that never ends?): refused")
-    lines = [l for l in done.stdout.splitlines() if l.startswith("{")]
+    _, hard = resource.getrlimit(resource.RLIMIT_CPU)
+    soft = CHECK_CPU_SECONDS if hard == resource.RLIM_INFINITY else min(CHECK_CPU_SECONDS, hard)
+    try:
+        resource.prlimit(pid, resource.RLIMIT_CPU, (soft, hard))
+    except ProcessLookupError:
+        pass  # it has ended already
+
+
+def probe_in_child(model) -> tuple[str | None, str | None]:
+    """The one-line problem of the model's GLSL (None if it compiles and evaluates probe pairs
+    within CHECK_CPU_SECONDS of CPU time in a child process), and where it is undefined."""
+    from brdflab.models.files.library import PROBE_PAIRS
+
+    ran_out = (f"its GLSL did not finish evaluating {PROBE_PAIRS:,} direction pairs in {CHECK_CPU_SECONDS:g} s "
+               "of CPU time (a lobe takes milliseconds): refused")
+    with subprocess.Popen(probe_command(model), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as child:
+        _limit_cpu(child.pid)
+        try:
+            stdout, stderr = child.communicate(timeout=HANG_SECONDS)
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.communicate()
+            return ran_out, None
+    if child.returncode in (-signal.SIGXCPU, -signal.SIGKILL):
+        return ran_out, None
+    lines = [l for l in stdout.splitlines() if l.startswith("{")]
     if not lines:
-        tail = (done.stderr.strip().splitlines() or ["no answer"])[-1]
-        return f"its GLSL could not be checked: {tail}"
-    return json.loads(lines[-1]).get("problem")
+        tail = (stderr.strip().splitlines() or ["no answer"])[-1]
+        return f"its GLSL could not be checked: {tail}", None
+    answer = json.loads(lines[-1])
+    return answer.get("problem"), answer.get("undefined")
 
 
 backend.install(GlslEvaluator())

@@ -82,7 +82,11 @@ def load_source(path: Path, fitting: int | None = None, warn: Warn | None = None
     if is_model_file(path):
         if fitting is not None:
             raise BRDFLabError("a model file stores no fittings", path)
-        return model_file_material(path)
+        material = model_file_material(path)
+        undefined = material.lobes[0].model.undefined
+        if undefined and warn is not None:
+            warn(undefined)  # where the file is undefined (its values taken as 0 there)
+        return material
     if not is_xml(path):
         if fitting is not None:
             raise BRDFLabError("only XML materials store fittings", path)

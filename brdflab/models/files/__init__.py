@@ -6,6 +6,7 @@ puts it beside the built-ins, and `library` finds the user's model folders.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from brdflab.errors import BRDFLabError
@@ -19,6 +20,19 @@ SUFFIXES = (".brdf", ".xml")
 def is_model_file(text: str) -> bool:
     """Whether a command-line argument names a model file (by its suffix)."""
     return Path(text).suffix.lower() in SUFFIXES
+
+
+# what may stand before an XML document's root element: a BOM, space, the declaration and other
+# processing instructions, comments (a licence), a DOCTYPE (with an internal subset)
+_PROLOG = re.compile(rb"(?:\xef\xbb\xbf)?(?:\s+|<\?.*?\?>|<!--.*?-->|<!DOCTYPE(?:[^\[\]>]|\[[^\]]*\])*>)*", re.S)
+_ROOT = re.compile(rb"<([A-Za-z_][\w.:-]*)")
+DESCRIPTOR_ROOT = "AnalyticBRDFModel"
+
+
+def root_element(head: bytes) -> str | None:
+    """The name of an XML document's root element, if `head` (its first bytes) reaches it."""
+    m = _ROOT.match(head, _PROLOG.match(head).end())
+    return m.group(1).decode("ascii") if m else None
 
 
 def read_model_bytes(path: str | Path) -> bytes:
@@ -35,7 +49,7 @@ def read_model_file(path: str | Path, name: str | None = None, data: bytes | Non
     data = read_model_bytes(path) if data is None else data
     if path.suffix.lower() == ".brdf":
         return brdf_explorer.read(path, data, name)
-    if b"AnalyticBRDFModel" in data[:4096] or path.suffix.lower() == ".xml":
+    if path.suffix.lower() == ".xml" or root_element(data) == DESCRIPTOR_ROOT:
         return descriptor.read(path, data, name)
     raise BRDFLabError("not a model file (a BRDF Explorer .brdf or a BRDFLab model descriptor .xml)", path)
 

@@ -9,8 +9,10 @@
     ::end shader
     ::begin isFunc  (optional: its own importance sampling)  ::end isFunc
 
-Lines whose first non-blank character is `#` are comments everywhere, in the shader too
-(BRDF Explorer drops them before GLSL sees them). A `color` becomes three parameters
+Lines whose first non-blank character is `#` are comments everywhere, as BRDF Explorer reads
+them, except in the shader the GLSL directives `#define NAME …`, `#undef`, `#ifdef`, `#ifndef`,
+`#else` and `#endif` (BRDF Explorer drops those too, so a file that uses one did not compile
+there; none of its files has a `#` line in its shader). A `color` becomes three parameters
 NAME_r, NAME_g, NAME_b in [0, 1]; a `bool` is a switch (0 or 1) that fits leave alone. The
 value is the vec3 BRDF returns (a colour lobe; the lab's renderers, fitter and plots take
 its three channels, see AnalyticMaterial), L = wi and V = wo in the local frame (N = z,
@@ -26,7 +28,7 @@ from brdflab.errors import BRDFLabError
 from brdflab.io.numbers import ASCII_SPACE
 from brdflab.models.base import Parameter
 from brdflab.models.files import glsl_text
-from brdflab.models.files.limits import check_parameters, number, parameter_name
+from brdflab.models.files.limits import MAX_ARRAY_ELEMENTS, check_parameters, number, parameter_name
 from brdflab.models.files.model import FileModel, GlslParts, Origin, model_glsl_id
 
 FORMAT = "BRDF Explorer"
@@ -63,7 +65,7 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
                     raise fail(lineno, "an ::end inside the shader section that is not ::end shader")
                 section = ""
                 continue
-            shader.append("" if line.startswith("#") else raw)
+            shader.append("" if line.startswith("#") and not glsl_text.is_directive(line) else raw)
             continue
         if not line or line.startswith("#"):
             continue
@@ -104,6 +106,9 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
     check_parameters(params, lambda m: BRDFLabError(m, path))
 
     code = "\n".join(shader)
+    found = glsl_text.code_problem(code, MAX_ARRAY_ELEMENTS)
+    if found:
+        raise fail(shader_first_line + found[0] - 1, found[1])
     names = glsl_text.declared_names(code)
     if "BRDF" not in names:
         raise BRDFLabError("the shader defines no vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)", path)
@@ -123,7 +128,8 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
             globals_.append(f"vec3 {g};")
             sets.append(f"{g} = vec3(p[{k}], p[{k + 1}], p[{k + 2}]);")
         k += len(comps)
-    renamed = glsl_text.precise_calls(glsl_text.prefixed(code, names + [n for _, n, _ in declared], prefix))
+    renamed = glsl_text.guarded_loops(glsl_text.precise_calls(
+        glsl_text.prefixed(code, names + [n for _, n, _ in declared], prefix)), prefix)
     # the globals go on the line before the shader's first, so compiler line numbers stay the file's
     library = " ".join(globals_) + "\n" + renamed
     call = " ".join(sets) + f" return {prefix}BRDF(wi, wo, vec3(0.0, 0.0, 1.0), vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0));"

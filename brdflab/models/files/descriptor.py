@@ -25,7 +25,7 @@ from brdflab.models.base import Parameter
 from brdflab.models.files import glsl_text
 from brdflab.models.files.expression import DIRECTIONS, FUNCTIONS, CONSTANTS, FormulaError, compile_formula
 from brdflab.models.files.model import FileModel, GlslParts, Origin, model_glsl_id
-from brdflab.models.files.limits import check_parameters, number, parameter_name
+from brdflab.models.files.limits import MAX_ARRAY_ELEMENTS, check_parameters, number, parameter_name
 
 FORMAT = "BRDFLab descriptor"
 
@@ -84,6 +84,9 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
     if glsl_el is None or not (glsl_el.text or "").strip():
         raise BRDFLabError("no <Equation_GLSL>: the renderers need the model's GLSL", path)
     code = glsl_el.text.replace("U+003C", "<")
+    found = glsl_text.code_problem(code, MAX_ARRAY_ELEMENTS)
+    if found:
+        raise BRDFLabError(f"line {(glsl_el.sourceline or 1) + found[0] - 1}: {found[1]}", path)
     function = f"{model_name}BRDF"
     declared = glsl_text.declared_names(code)
     if function not in declared:
@@ -95,8 +98,8 @@ def read(path: Path, data: bytes, name: str | None = None) -> FileModel:
     origin = Origin.of(path, data, FORMAT)
     prefix = model_glsl_id(model_name, origin.sha256) + "_"
     names = glsl_text.declared_names(library_body) + ["params"]
-    library = f"float {prefix}params[NP];\n" + glsl_text.precise_calls(
-        glsl_text.prefixed(library_body, names, prefix))
+    library = f"float {prefix}params[NP];\n" + glsl_text.guarded_loops(glsl_text.precise_calls(
+        glsl_text.prefixed(library_body, names, prefix)), prefix)
     call = (f"for (int k = 0; k < {max(n, 1)}; k++) {prefix}params[k] = p[k]; "
             f"int j = 0; return {prefix}{function}(wi, wo, j);")
     glsl = GlslParts(library, call, returns_colour=False, line_offset=(glsl_el.sourceline or 1) - 1 - len(helpers))

@@ -21,11 +21,13 @@ import numpy as np
 from brdflab.errors import BRDFLabError
 from brdflab.io.bounded import kind_problem, outside_problem
 from brdflab.io.resources import MODELS_ENV
-from brdflab.models.files import SUFFIXES, is_model_file, read_model_bytes, read_model_file
+from brdflab.models.files import (DESCRIPTOR_ROOT, SUFFIXES, is_model_file, read_model_bytes, read_model_file,
+                                  root_element)
 from brdflab.models.files.limits import MAX_MODEL_BYTES
 from brdflab.models.files.expression import direction_values
 from brdflab.models.files.model import FileModel
-from brdflab.models.registry import DuplicateModelName, add_file_model, file_models, find_file_model, model_names
+from brdflab.models.registry import (DuplicateModelName, add_file_model, file_models, find_file_model, model_names,
+                                     registry_name)
 
 MAX_FILES_PER_FOLDER = 1000
 PROBE_PAIRS = 4096
@@ -48,33 +50,51 @@ def model_files(folder: Path) -> list[Path]:
 
 
 def is_descriptor(path: Path) -> bool:
-    """Whether a file's first 4 KB name BRDFLab's <AnalyticBRDFModel> (a model, not a material)."""
+    """Whether a file's root element is BRDFLab's <AnalyticBRDFModel> (a model, not a material),
+    whatever comments (a licence) come before it; read a block at a time, at most a model file's
+    size limit."""
+    head = b""
     try:
         with open(path, "rb") as f:
-            return b"AnalyticBRDFModel" in f.read(4096)
+            while len(head) < MAX_MODEL_BYTES:
+                block = f.read(min(max(len(head), 4096), MAX_MODEL_BYTES - len(head)))
+                if not block:
+                    break
+                head += block
+                name = root_element(head)
+                if name is not None:
+                    return name == DESCRIPTOR_ROOT
     except OSError:
         return False
+    return False
 
 
 def check_model(model: FileModel) -> None:
-    """Refuse a model whose values are unusable: its formula gives NaN or negative values at
-    its defaults, or its GLSL does not compile, runs away or gives NaN (child process)."""
+    """Refuse a model whose values are unusable: its formula is undefined (NaN) at most probe
+    pairs or negative at its defaults, or its GLSL does not compile, runs away, or is undefined
+    or negative (child process). Where it is undefined at fewer, the model says so
+    (`FileModel.undefined`, one warning)."""
     if model.formula is not None:
         wi, wo = probe_pairs(PROBE_PAIRS)
         values = model.formula.evaluate({**direction_values(wi, wo), **model.defaults()})
-        problem = values_problem(np.broadcast_to(values, wi.shape[:1])[:, None], wi, wo, "its <Equation>")
+        values = np.broadcast_to(values, wi.shape[:1])[:, None]
+        problem = values_problem(values, wi, wo, "its <Equation>")
         if problem:
             raise BRDFLabError(problem, model.origin.path)
+        model.note_undefined(undefined_where(values, wi, wo, "its <Equation>"))
     from brdflab.models.files.backend import glsl_evaluator
 
     glsl_evaluator().check(model)
 
 
+UNDEFINED_SHARE = 0.5  # a model undefined at more of the probe pairs than this is no usable lobe
+
+
 def values_problem(values: np.ndarray, wi: np.ndarray, wo: np.ndarray, what: str) -> str | None:
     """What is wrong with a model's values (N, channels) at probe pairs at its defaults: NaN or
-    infinity at more than 1 % of them, or any negative value; None if nothing."""
+    infinity at more than UNDEFINED_SHARE of them, or any negative value; None if nothing."""
     bad = ~np.isfinite(values).all(axis=-1)
-    if bad.mean() > 0.01:
+    if bad.mean() > UNDEFINED_SHARE:
         k = int(np.argmax(bad))
         return (f"{what} gives NaN or infinity at {bad.mean():.0%} of probe pairs at its defaults "
                 f"(e.g. wi = {np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()})")
@@ -85,6 +105,19 @@ def values_problem(values: np.ndarray, wi: np.ndarray, wo: np.ndarray, what: str
         return (f"{what} gives negative values at its defaults (e.g. {float(finite[k].min()):.3g} at wi = "
                 f"{np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()}): a BRDF is never negative")
     return None
+
+
+def undefined_where(values: np.ndarray, wi: np.ndarray, wo: np.ndarray, what: str) -> str | None:
+    """Where a usable model is undefined (NaN or infinite even as a limit) at its defaults:
+    the share of probe pairs, the range of θi and θo there, and an example; None if nowhere."""
+    bad = ~np.isfinite(values).all(axis=-1)
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad))
+    ti, to = (np.degrees(np.arccos(np.clip(w[bad, 2], -1.0, 1.0))) for w in (wi, wo))
+    return (f"{what} is undefined (NaN or infinity, taken as 0) at {bad.mean():.1%} of probe pairs at its "
+            f"defaults, with θi {ti.min():.0f}–{ti.max():.0f}° and θo {to.min():.0f}–{to.max():.0f}° there "
+            f"(e.g. wi = {np.round(wi[k], 3).tolist()}, wo = {np.round(wo[k], 3).tolist()})")
 
 
 def probe_pairs(n: int, seed: int = 7) -> tuple[np.ndarray, np.ndarray]:
@@ -100,33 +133,60 @@ def probe_pairs(n: int, seed: int = 7) -> tuple[np.ndarray, np.ndarray]:
 def load_model_file(path: str | Path, check: bool = True) -> FileModel:
     """Read, check and register one model file; the registered model (an identical file
     already registered is that model). BRDFLabError, naming the file, if it is unusable."""
-    path = Path(path)
+    return register(read_model(Path(path)), check)
+
+
+def read_model(path: Path) -> FileModel:
+    """The model a file defines, read (not checked): the registered one if this file,
+    unchanged, is registered already (no second parse or check)."""
     data = read_model_bytes(path)
     sha256 = hashlib.sha256(data).hexdigest()
-    for m in file_models():  # the same file, unchanged: no second parse or check
+    for m in file_models():
         if m.origin.path == path.resolve() and m.origin.sha256 == sha256:
             return m
-    model = read_model_file(path, data=data)
-    if check:
+    return read_model_file(path, data=data)
+
+
+def register(model: FileModel, check: bool = True) -> FileModel:
+    """Check a model read from a file (unless registered already) and register it."""
+    if check and model not in file_models():
         check_model(model)
     return add_file_model(model)
 
 
 def load_folders(folders: Iterable[Path], warn: Warn | None = None) -> list[FileModel]:
     """Register every model file in these folders. A file that cannot be used is reported
-    through `warn` (one line) and skipped; two files with one model name are an error."""
-    loaded = []
+    through `warn` (one line) and skipped; so are files that define one model name (all of
+    them: which one a material meant cannot be known), in one line naming them."""
+    read: list[FileModel] = []
     for folder in folders:
         for path in model_files(Path(folder)):
-            try:
-                loaded.append(load_model_file(path))
-            except DuplicateModelName:
-                raise
-            except BRDFLabError as e:
-                if warn is None:
-                    raise
-                warn(str(e))
+            _skipping(warn, lambda: read.append(read_model(path)))
+    by_name: dict[str, dict[str, FileModel]] = {}
+    for model in read:
+        by_name.setdefault(registry_name(model), {}).setdefault(model.origin.sha256, model)
+    loaded = []
+    for name, versions in by_name.items():
+        if len(versions) > 1:
+            message = (f"{len(versions)} model files define the model {name!r} "
+                       f"({', '.join(str(m.origin.path) for m in versions.values())}): all are skipped; rename all "
+                       "but one (a model's name must be unique)")
+            if warn is None:
+                raise DuplicateModelName(message)
+            warn(message)
+            continue
+        _skipping(warn, lambda: loaded.append(register(next(iter(versions.values())))))
     return loaded
+
+
+def _skipping(warn: Warn | None, work: Callable[[], object]) -> None:
+    """Run `work`; a BRDFLabError is told to `warn` (one line) and skipped, or raised without one."""
+    try:
+        work()
+    except BRDFLabError as e:
+        if warn is None:
+            raise
+        warn(str(e))
 
 
 def resolve_lobe(text: str) -> str:

@@ -12,6 +12,11 @@ from brdflab.models.base import Parameter
 
 MAX_MODEL_BYTES = 1 << 20  # BRDF Explorer's largest file (disney.brdf) is 4 KB
 FLOAT32_MAX = 3.4028234663852886e38  # numpy.finfo(numpy.float32).max, without importing NumPy here
+# a model's loop-condition checks, all its loops together, per evaluation: llvmpipe ends every loop of a
+# shader invocation once they have run 65,535 iterations together (measured: two loops of 40,000 gave
+# 65,534; 300 × 300 nested, 65,101); the headroom is the lab's own loops around the model's
+MAX_LOOP_STEPS = 65000
+MAX_ARRAY_ELEMENTS = 1024  # a lobe needs small tables; Mesa compiled 10,000 floats in 19 s of CPU, 10⁸ in 40 s and 2.4 GB
 MAX_PARAMETERS = 32  # scalars: the renderers pass a lobe's parameters as float p[NP], NP ≤ 32 (render.glsl)
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _GLSL_RESERVED = frozenset("""

@@ -25,6 +25,10 @@ import numpy as np
 from brdflab.geometry.vec import rotate_about_z
 from brdflab.models.base import LUMINANCE, LobeModel, Parameter, SplitSum
 from brdflab.models.files.expression import Formula, direction_values
+from brdflab.models.files.glsl_text import OVER, STEP, STEPS
+from brdflab.models.files.limits import MAX_LOOP_STEPS
+
+NUDGE = 0.01  # radians: wi and wo turned this far apart where a file's value is NaN (its limit)
 
 
 
@@ -70,6 +74,7 @@ class FileModel(LobeModel):
         self.summary = summary or f"{origin.format} model from {origin.path.name}"
         self.reference = str(origin.path)
         self.warnings = list(warnings)
+        self.undefined: str | None = None  # where its values are NaN at its defaults (library.check_model)
         self.sampling = "tabulated from the lobe's own values (the lab's generic sampler)"
         self.split_sum_rule = ("measured on the lobe's own values at normal view: mirror, Beckmann α = "
                                "√(albedo / (4π f(n, n))) (exact for a microfacet lobe's core); diffuse "
@@ -84,6 +89,12 @@ class FileModel(LobeModel):
         from brdflab.models.files.library import rebuild
 
         return rebuild, (str(self.origin.path), self.origin.sha256, self.name)
+
+    def note_undefined(self, where: str | None) -> None:
+        """Record where the model is undefined (one warning, said when the file is opened)."""
+        if where and self.undefined is None:
+            self.undefined = f"{self.origin.path.name}: {where}"
+            self.warnings.append(self.undefined)
 
     # --- identity
     @property
@@ -190,12 +201,32 @@ class FileModel(LobeModel):
 
     # --- GLSL twin
     def glsl_source(self) -> str:
+        """The file's GLSL and the lab's wrapper `brdf_<id>(wi, wo, p)` (a colour lobe also
+        `brdf_<id>_rgb`). The file's loops count their steps (glsl_text.guarded_loops): past
+        MAX_LOOP_STEPS in one call of the wrapper (its limit included) the loops end, the flag
+        `<id>_0over` is set and the value is NaN. Where the file's value is NaN or infinite, the wrapper takes its limit:
+        the mean of its finite values at wi, wo turned ±NUDGE apart about x and about y
+        (`nudged`, shaders/common.glsl), so a removable singularity (Schlick's pow(1 − wi·h, 5)
+        at wi = wo, where rounding puts wi·h above 1) has its value, and what stays NaN is
+        where the file is undefined."""
         i = self._id
-        if not self.colour:
-            return f"{self.glsl.library}\nfloat brdf_{i}(vec3 wi, vec3 wo, float p[NP]) {{ {self.glsl.call} }}\n"
-        return (f"{self.glsl.library}\nvec3 brdf_{i}_rgb(vec3 wi, vec3 wo, float p[NP]) {{ {self.glsl.call} }}\n"
-                f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) "
-                f"{{ return dot(brdf_{i}_rgb(wi, wo, p), vec3({', '.join(map(str, LUMINANCE))})); }}\n")
+        kind = "vec3" if self.colour else "float"
+        head = (f"int {i}_{STEPS}; bool {i}_{OVER}; bool {i}_{STEP}() {{ {i}_{STEPS}++; "
+                f"if ({i}_{STEPS} > {MAX_LOOP_STEPS}) {{ {i}_{OVER} = true; return false; }} return true; }} ")
+        finite = "!(any(isnan(f)) || any(isinf(f)))" if self.colour else "!(isnan(f) || isinf(f))"
+        name = f"brdf_{i}_rgb" if self.colour else f"brdf_{i}"
+        out = (f"{head}{self.glsl.library}\n{kind} {i}_0file(vec3 wi, vec3 wo, float p[NP]) {{ {self.glsl.call} }}\n"
+               f"{kind} {name}(vec3 wi, vec3 wo, float p[NP]) {{\n"
+               f"    {i}_{OVER} = false; {i}_{STEPS} = 0; {kind} sum = {kind}(0.0); float n = 0.0;\n"
+               f"    for (int k = 0; k < 5; k++) {{\n"
+               f"        {kind} f = {i}_0file(nudged(wi, k, {NUDGE}), nudged(wo, k, -{NUDGE}), p);\n"
+               f"        if ({i}_{OVER}) return {kind}(nan_value());\n"
+               f"        if ({finite}) {{ if (k == 0) return f; sum += f; n += 1.0; }}\n"
+               f"    }}\n    return n > 0.0 ? sum / n : {kind}(nan_value());\n}}\n")
+        if self.colour:
+            out += (f"float brdf_{i}(vec3 wi, vec3 wo, float p[NP]) "
+                    f"{{ return dot(brdf_{i}_rgb(wi, wo, p), vec3({', '.join(map(str, LUMINANCE))})); }}\n")
+        return out
 
     # sampled by the generic tabulated sampler, in NumPy (_sample, _pdf) and in the renderers
     # (shaders/tabulated.glsl, textures from render/tabulated.py)
