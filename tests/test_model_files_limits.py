@@ -206,3 +206,12 @@ def test_a_probe_that_computes_past_its_cpu_budget_is_refused(tmp_path, monkeypa
     assert main(["eval", str(path), "--pairs", str(tmp_path / "pairs.npy"), "--out", str(tmp_path / "o.npy")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "1 s of CPU time" in err and str(path) in err
+
+
+def test_a_file_named_gl_something_opens(tmp_path):
+    """A model's GLSL names start with its file's stem: `gl_lambert.brdf` gave names with GLSL's
+    reserved gl_ prefix ("identifier … uses reserved `gl_' prefix"), refused as a GLSL error."""
+    path = tmp_path / "gl_lambert.brdf"
+    path.write_text(BRDF.format(head="", body="return vec3(k / 3.14159265);"))
+    values, done = evaluate(path, same_directions(4), tmp_path)
+    np.testing.assert_allclose(values, 0.5 / np.pi, rtol=1e-5)
