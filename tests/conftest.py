@@ -32,6 +32,13 @@ def _registry_as_it_was():
     _MODELS.update(before)
 
 
+@pytest.fixture(autouse=True)
+def _own_user_cache(tmp_path_factory, monkeypatch):
+    """Each test starts with an empty user cache (BRDFLAB_CACHE; its subprocesses inherit it):
+    a fit one test cached, or one left by an earlier run on this machine, never answers another."""
+    monkeypatch.setenv("BRDFLAB_CACHE", str(tmp_path_factory.mktemp("cache")))
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)

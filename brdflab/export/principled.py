@@ -29,6 +29,7 @@ class PrincipledExport:
     error: float = 0.0  # Ngan RMSE of the principled material against the source
     relative_error: float = 0.0  # error / the source's own Ngan size
     warnings: list[str] = field(default_factory=list)
+    _grid: object = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def base_color(self) -> list[float]:
@@ -54,6 +55,15 @@ class PrincipledExport:
 
     def material(self, name: str = "principled") -> AnalyticMaterial:
         return AnalyticMaterial(name, "Linear", 3, [Lobe(get_model("Principled"), dict(self.params), [1.0, 1.0, 1.0])])
+
+    def grid(self):
+        """The lab's analytic sample grid of this material, built once for all the losses an
+        export weighs (a grid of Principled is seconds; an export weighed four losses, each on its own)."""
+        if self._grid is None:
+            from brdflab.fitting.samples import samples_of
+
+            self._grid = samples_of(self.material())
+        return self._grid
 
 
 def exact_principled(source) -> dict[str, float] | None:
@@ -94,12 +104,9 @@ def dropped_error(export: PrincipledExport, neutral: dict[str, float]) -> tuple[
     Ngan error (and its relative size) of the principled material with those values against
     the material with them, over the lab's analytic sample grid."""
     from brdflab.fitting.metrics import metric_errors
-    from brdflab.fitting.samples import samples_of
 
-    full = export.material()
-    reduced = AnalyticMaterial("reduced", "Linear", 3, [Lobe(full.lobes[0].model, {**export.params, **neutral}, [1.0] * 3)])
-    samples = samples_of(full)
-    error, zero = metric_errors([reduced, None], samples, "Ngan")  # the grid's values are the full material's
+    reduced = AnalyticMaterial("reduced", "Linear", 3, [Lobe(get_model("Principled"), {**export.params, **neutral}, [1.0] * 3)])
+    error, zero = metric_errors([reduced, None], export.grid(), "Ngan")  # the grid's values are the full material's
     return error, (error / zero if zero > 0 else 0.0)
 
 

@@ -6,6 +6,7 @@ is the sample's share of the (ωi, ωo) measure, used by the Ngan metric.
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from typing import Iterator
 
@@ -57,6 +58,19 @@ class SampleSet:
     def subset(self, size: int, seed: int = 0) -> "SampleSet":
         raise NotImplementedError
 
+    def digest(self) -> str:
+        """SHA-256 of what the samples are made of: equal digests, equal samples (fit_cache.py)."""
+        raise NotImplementedError
+
+
+def _digest(*arrays: np.ndarray) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(memoryview(a).cast("B"))
+    return h.hexdigest()
+
 
 @dataclass
 class ArraySampleSet(SampleSet):
@@ -78,6 +92,9 @@ class ArraySampleSet(SampleSet):
         for s in range(0, self.size, self.chunk):
             e = s + self.chunk
             yield self.wi[s:e], self.wo[s:e], self.values[s:e], self.weight[s:e]
+
+    def digest(self) -> str:
+        return _digest(self.wi, self.wo, self.values, self.weight)
 
     def subset(self, size: int, seed: int = 0) -> "ArraySampleSet":
         if size >= self.size:
@@ -169,6 +186,10 @@ class TableSampleSet(SampleSet):
             cols = np.flatnonzero(self._row_valid[r])
             if cols.size:
                 yield self._row(r, cols)
+
+    def digest(self) -> str:
+        """The table's values and validity and the bins taken: the samples follow from them."""
+        return _digest(self.table.values, self.table.valid, self.ix, self.iy, self.iz)
 
     def subset(self, size: int, seed: int = 0) -> ArraySampleSet:
         """A stratified subset of `size` samples, as arrays (weights scaled to the whole)."""

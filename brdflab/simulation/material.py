@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.user_cache import cache_folder
 from brdflab.io.numbers import ascii_integer
 from brdflab.simulation import microgeometry, scatmech
 from brdflab.simulation.registry import get_kind
@@ -97,7 +98,7 @@ class SimulatedMaterial:
 # building tables
 
 def cache_dir() -> Path:
-    return Path(os.environ.get("BRDFLAB_CACHE") or Path.home() / ".cache" / "brdflab") / "simulated"
+    return cache_folder("simulated")
 
 
 def _jobs(spec: SimulationSpec, workers: int):

@@ -1,0 +1,111 @@
+"""Fits made once: a fit of the same lobes to the same samples with the same options, by the
+same fitter, is read back from the user's cache instead of run again (issue 35: every export
+of a measured source refitted Principled from scratch, 2–6 minutes each).
+
+The key is a SHA-256 of what decides the result: the samples' content (`SampleSet.digest`),
+the start (its lobes, parameters and scales), the options, and the fitter's own code (the
+source of the fitting and model modules it runs), so a changed fitter never returns an old
+answer. An entry is one small JSON file written atomically; one that cannot be read, or
+whose parameters a material may not hold, is fitted again and rewritten. Only fits that ran
+to their end are kept (not a cancelled one, nor one cut by a time limit).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from pathlib import Path
+
+from brdflab.errors import BRDFLabError
+from brdflab.fitting.lm import STOPPED, FitOptions, FitResult, fit
+from brdflab.fitting.samples import SampleSet
+from brdflab.io.atomic import atomic_write
+from brdflab.io.user_cache import cache_folder
+from brdflab.material.analytic import AnalyticMaterial
+
+KIND = "fits"
+VERSION = 1  # of the entry's layout
+
+
+def _code_digest(material: AnalyticMaterial) -> str:
+    """SHA-256 of the fitter's modules and of each lobe model's module, as they are on disk
+    (read once per fit: a few hundred kB)."""
+    import inspect
+
+    from brdflab.fitting import lm, metrics, nnls, samples
+
+    modules = [lm, metrics, nnls, samples, *(inspect.getmodule(type(l.model)) for l in material.lobes)]
+    h = hashlib.sha256()
+    for module in modules:
+        path = getattr(module, "__file__", None)
+        h.update(Path(path).read_bytes() if path else repr(module).encode())
+    return h.hexdigest()
+
+
+def fit_key(start: AnalyticMaterial, samples: SampleSet, options: FitOptions) -> str:
+    """The cache key of fitting `start` to `samples` with `options`."""
+    described = {
+        "version": VERSION,
+        # a model read from a file is its file's content (origin.sha256), not its name
+        "start": [[l.model.name, getattr(getattr(l.model, "origin", None), "sha256", None), sorted(l.params.items()),
+                   list(l.scale), l.channel] for l in start.lobes],
+        "combination": start.combination,
+        "channels": start.n_channels,
+        "options": {k: v for k, v in dataclasses.asdict(options).items() if k not in ("workers", "time_limit")},
+        "samples": samples.digest(),
+        "code": _code_digest(start),
+    }
+    return hashlib.sha256(json.dumps(described, sort_keys=True, default=repr).encode()).hexdigest()
+
+
+def _entry_path(key: str) -> Path:
+    return cache_folder(KIND) / f"{key}.json"
+
+
+def _read(start: AnalyticMaterial, options: FitOptions, key: str) -> FitResult | None:
+    """The cached result for `key`, or None when there is none or it cannot be used."""
+    try:
+        entry = json.loads(_entry_path(key).read_text(encoding="utf-8"))
+        material = start.copy()
+        if len(entry["lobes"]) != len(material.lobes):
+            return None
+        for lobe, stored in zip(material.lobes, entry["lobes"]):
+            lobe.params = {k: float(stored["params"][k]) for k in lobe.params}
+            lobe.scale = [float(s) for s in stored["scale"]]
+        material.validate()
+        error, zero = float(entry["error"]), float(entry["zero_error"])
+        if not (math.isfinite(error) and math.isfinite(zero)):
+            return None
+        return FitResult(material, error, options.metric, 0.0, int(entry["iterations"]), 0, str(entry["status"]),
+                         str(entry["message"]), [], list(entry["warnings"]), zero, str(entry["scored_on"]))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, BRDFLabError):
+        return None
+
+
+def _write(key: str, result: FitResult) -> None:
+    entry = {"lobes": [{"model": l.model.name, "params": l.params, "scale": list(l.scale)} for l in result.material.lobes],
+             "error": result.error, "zero_error": result.zero_error, "iterations": result.iterations,
+             "status": result.status, "message": result.message, "warnings": result.warnings,
+             "scored_on": result.scored_on, "seconds": result.seconds}
+    try:
+        _entry_path(key).parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(_entry_path(key), json.dumps(entry).encode())
+    except (OSError, BRDFLabError):
+        pass  # an unwritable cache only costs time
+
+
+def fit_once(start: AnalyticMaterial, samples: SampleSet, options: FitOptions | None = None,
+             cancel=None) -> tuple[FitResult, bool]:
+    """`fit(start, samples, options)`, from the cache when the same fit ran before; and whether
+    it came from the cache."""
+    options = options or FitOptions()
+    key = fit_key(start, samples, options)
+    cached = _read(start, options, key)
+    if cached is not None:
+        return cached, True
+    result = fit(start, samples, options, cancel=cancel)
+    if result.status not in STOPPED:
+        _write(key, result)
+    return result, False
