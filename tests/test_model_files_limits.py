@@ -84,6 +84,22 @@ def test_schlick_in_the_reference_view_has_no_black_speckles(tmp_path):
     np.testing.assert_allclose(image[inside], expected, atol=2e-3)
 
 
+def test_a_descriptor_s_formula_takes_the_same_limit_as_its_glsl(tmp_path):
+    """A descriptor's <Equation> (what fits and plots evaluate) and its <Equation_GLSL> (what
+    renders) are both value · d / d with d = |wi − wo|², 0/0 at wi = wo: the formula was 0
+    there (NaN zeroed) while the GLSL takes its limit; both are `value` now."""
+    d = "((ux-vx)^2 + (uy-vy)^2 + (uz-vz)^2)"
+    path = tmp_path / "ratio.xml"
+    path.write_text('<!DOCTYPE BRDFModel>\n<AnalyticBRDFModel name="Ratio" type="Isotropic">\n <Parameters>\n'
+                    '  <Parameter name="value" defaultVal="0.3" lowBound="0" highBound="1"/>\n </Parameters>\n'
+                    f" <Equation>value * {d} / {d}</Equation>\n <Equation_GLSL>\n"
+                    " float RatioBRDF(vec3 u, vec3 v, int j) { float d = dot(u - v, u - v); return params[j] * d / d; }\n"
+                    " </Equation_GLSL>\n</AnalyticBRDFModel>\n")
+    values, done = evaluate(path, same_directions(), tmp_path)
+    np.testing.assert_allclose(values, 0.3, rtol=1e-6)
+    assert done.stderr == ""
+
+
 @pytest.mark.parametrize("name, share", [("dAniso.brdf", 0.098), ("edwards06.brdf", 0.107)])
 def test_brdf_explorer_files_undefined_in_places_open_with_one_warning(name, share, tmp_path):
     """dAniso (pow of a negative where L and V face apart about the tangent) and edwards06 (a

@@ -15,7 +15,6 @@ import time
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.models.files.expression import direction_values
 
 SLOW_CPU_SECONDS = 2.0  # CPU time for PROBE_PAIRS pairs (the same on a loaded machine); corpus models take ms
 AGREE = 1e-3  # a formula and its GLSL twin agree this closely (float32 GLSL); the corpora: 2e-5
@@ -40,7 +39,7 @@ def problem(model) -> tuple[str | None, str | None]:
         return found, None
     undefined = undefined_where(values, wi, wo, "its GLSL")
     if model.formula is not None:
-        cpu = np.broadcast_to(model.formula.evaluate({**direction_values(wi, wo), **p}), wi.shape[:1])
+        cpu = model.formula_values(wi, wo, p)
         gpu = values[:, 0]
         big = np.isfinite(cpu) & (np.abs(gpu) > 1e-6)
         rel = np.abs(cpu[big] - gpu[big]) / np.abs(gpu[big])

@@ -24,7 +24,6 @@ from brdflab.io.resources import MODELS_ENV
 from brdflab.models.files import (DESCRIPTOR_ROOT, SUFFIXES, is_model_file, read_model_bytes, read_model_file,
                                   root_element)
 from brdflab.models.files.limits import MAX_MODEL_BYTES
-from brdflab.models.files.expression import direction_values
 from brdflab.models.files.model import FileModel
 from brdflab.models.registry import (DuplicateModelName, add_file_model, file_models, find_file_model, model_names,
                                      registry_name)
@@ -76,8 +75,7 @@ def check_model(model: FileModel) -> None:
     (`FileModel.undefined`, one warning)."""
     if model.formula is not None:
         wi, wo = probe_pairs(PROBE_PAIRS)
-        values = model.formula.evaluate({**direction_values(wi, wo), **model.defaults()})
-        values = np.broadcast_to(values, wi.shape[:1])[:, None]
+        values = model.formula_values(wi, wo, model.defaults())[:, None]
         problem = values_problem(values, wi, wo, "its <Equation>")
         if problem:
             raise BRDFLabError(problem, model.origin.path)

@@ -16,6 +16,7 @@ check and the file format use it without knowing where it came from:
 from __future__ import annotations
 
 import hashlib
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -144,10 +145,33 @@ class FileModel(LobeModel):
     # --- evaluation
     def _value(self, wi, wo, p):
         if self.formula is not None:
-            values = direction_values(wi, wo)
-            values.update({k: np.asarray(v, float) for k, v in p.items()})
-            return self.formula.evaluate(values)
+            return self.formula_values(wi, wo, p)
         return self._gl_values(wi, wo, p) @ LUMINANCE if self.colour else self._gl_values(wi, wo, p)[..., 0]
+
+    def formula_values(self, wi: np.ndarray, wo: np.ndarray, p: Mapping) -> np.ndarray:
+        """The <Equation>'s values; where NaN or infinite, its limit as the GLSL twin takes it
+        (glsl_source): the mean of its finite values at wi and wo turned ±NUDGE apart about x
+        and about y (NaN where none is finite: the file is undefined there)."""
+        def raw(a, b, q):
+            values = direction_values(a, b)
+            values.update({k: np.asarray(v, float) for k, v in q.items()})
+            return self.formula.evaluate(values)
+
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            v = raw(wi, wo, p)
+            shape = np.broadcast_shapes(np.shape(v), wi.shape[:-1], wo.shape[:-1], *(np.shape(x) for x in p.values()))
+            v = np.array(np.broadcast_to(v, shape), float)
+            bad = ~np.isfinite(v)
+            if not bad.any():
+                return v
+            a, b = (np.broadcast_to(w, shape + (3,))[bad] for w in (wi, wo))
+            q = {k: np.broadcast_to(np.asarray(x, float), shape)[bad] for k, x in p.items()}
+            around = np.stack([np.broadcast_to(raw(nudged(a, k, NUDGE), nudged(b, k, -NUDGE), q), a.shape[:1])
+                               for k in range(1, 5)])
+        finite = np.isfinite(around)
+        count = finite.sum(axis=0)
+        v[bad] = np.where(count > 0, np.where(finite, around, 0.0).sum(axis=0) / np.maximum(count, 1), np.nan)
+        return v
 
     def evaluate_rgb(self, wi, wo, params=None):
         if not self.colour:
@@ -239,6 +263,17 @@ class FileModel(LobeModel):
     @property
     def glsl_samplable(self) -> bool:
         return False  # no sample_<id>/pdf_<id>: the renderers use the tables (tabulated = True)
+
+
+def nudged(w: np.ndarray, k: int, angle: float) -> np.ndarray:
+    """Directions (n, 3) turned by `angle` about x (k = 1: +, 2: −) or y (k = 3: +, 4: −): the
+    NumPy twin of shaders/common.glsl's nudged."""
+    s = math.sin(angle) if k in (1, 3) else -math.sin(angle)
+    c = math.cos(angle)
+    x, y, z = w[:, 0], w[:, 1], w[:, 2]
+    if k <= 2:
+        return np.stack([x, c * y - s * z, s * y + c * z], axis=-1)
+    return np.stack([c * x + s * z, y, -s * x + c * z], axis=-1)
 
 
 def model_glsl_id(model_name: str, sha256: str) -> str:
