@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.export.principled import PrincipledExport, loss_warnings, sheen_range_warnings, stretch_warnings
+from brdflab.export.principled import PrincipledExport, approximation_warnings, stretch_warnings
 from brdflab.models.principled import alphas, clearcoat_alpha
 
 SPHERE_RINGS, SPHERE_SEGMENTS = 48, 96
@@ -126,15 +126,9 @@ def export_gltf(export: PrincipledExport, path: Path, name: str) -> list[str]:
             doc.save_binary(str(tmp))
         else:
             doc.save_json(str(tmp))
-    warnings = list(export.warnings)
-    p = export.params
-    if p["subsurface"] > 0.0:
-        warnings += loss_warnings(export, {"subsurface": 0.0}, "gltf: subsurface not carried")
-    if p["clearcoat"] > 0.0:
-        warnings += loss_warnings(export, {"clearcoat": 0.0}, "gltf: the clear coat is carried approximately "
-                                  "(KHR_materials_clearcoat, a GGX layer: clearcoat / 4, roughness √α); the whole coat")
-    if p["sheen"] > 0.0:
-        warnings += loss_warnings(export, {"sheen": 0.0}, "gltf: the sheen is carried approximately (KHR_materials_sheen's "
-                                  "Charlie lobe of roughness 0.5, not Disney's Schlick sheen); the whole sheen")
-        warnings += sheen_range_warnings(export, "gltf")
+    warnings = list(export.warnings) + approximation_warnings(
+        export, "gltf", "subsurface not carried",
+        "the clear coat is carried approximately (KHR_materials_clearcoat, a GGX layer: clearcoat / 4, roughness √α)",
+        "the sheen is carried approximately (KHR_materials_sheen's Charlie lobe of roughness 0.5, not Disney's "
+        "Schlick sheen)")
     return warnings + stretch_warnings(export, "gltf")

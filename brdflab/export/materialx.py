@@ -23,8 +23,8 @@ from brdflab.errors import BRDFLabError
 from brdflab.export.principled import (
     DISNEY_ANISOTROPY,
     PrincipledExport,
+    approximation_warnings,
     loss_warnings,
-    sheen_range_warnings,
     stretch_warnings,
 )
 from brdflab.models.principled import clearcoat_alpha
@@ -107,17 +107,12 @@ def export_materialx(export: PrincipledExport, path, name: str) -> list[str]:
     options = mx.XmlWriteOptions()
     options.writeXIncludeEnable = False
     atomic_write(path, mx.writeToXmlString(doc, options).encode())
-    warnings = list(export.warnings)
-    p = export.params
-    if p["subsurface"] > 0.0:
-        warnings += loss_warnings(export, {"subsurface": 0.0}, "mtlx: subsurface (principled's flatness) is not carried")
-    if p["clearcoat"] > 0.0:
-        warnings += loss_warnings(export, {"clearcoat": 0.0}, "mtlx: the clear coat is carried approximately (a GGX coat "
-                                  "layer of weight clearcoat/4, roughness √α, instead of a GTR1 lobe); the whole coat")
-    if p["sheen"] > 0.0:
-        warnings += loss_warnings(export, {"sheen": 0.0}, "mtlx: the sheen is carried approximately (Standard Surface's "
-                                  "sheen and OpenPBR's fuzz are a microfibre layer, not Disney's Schlick sheen); the whole sheen")
-        warnings += sheen_range_warnings(export, "mtlx")
+    warnings = list(export.warnings) + approximation_warnings(
+        export, "mtlx", "subsurface (principled's flatness) is not carried",
+        "the clear coat is carried approximately (a GGX coat layer of weight clearcoat/4, roughness √α, instead of a "
+        "GTR1 lobe)",
+        "the sheen is carried approximately (Standard Surface's sheen and OpenPBR's fuzz are a microfibre layer, not "
+        "Disney's Schlick sheen)")
     if open_pbr_roughness(export) >= 1.0:  # OpenPBR at roughness 1 is Disney's at (2s / (1 + s²))^¼
         s = export.aspect()
         warnings += loss_warnings(export, {"roughness": (2.0 * s / (1.0 + s * s)) ** 0.25},

@@ -117,6 +117,22 @@ def loss_warnings(export: PrincipledExport, neutral: dict[str, float], what: str
     return [f"{what}: Ngan {error:.4g} ({100 * relative:.1f} % of the material)"] if relative >= LOSS_SAID else []
 
 
+def approximation_warnings(export: PrincipledExport, fmt: str, subsurface: str, coat: str, sheen: str) -> list[str]:
+    """What a format loses of the lobes it cannot carry exactly, each said in the format's own
+    words (`subsurface`, `coat`, `sheen`) with its cost, only where the material has that lobe;
+    and what keeping the sheen's colour in range costs."""
+    p = export.params
+    warnings = []
+    if p["subsurface"] > 0.0:
+        warnings += loss_warnings(export, {"subsurface": 0.0}, f"{fmt}: {subsurface}")
+    if p["clearcoat"] > 0.0:
+        warnings += loss_warnings(export, {"clearcoat": 0.0}, f"{fmt}: {coat}; the whole coat")
+    if p["sheen"] > 0.0:
+        warnings += loss_warnings(export, {"sheen": 0.0}, f"{fmt}: {sheen}; the whole sheen")
+        warnings += sheen_range_warnings(export, fmt)
+    return warnings
+
+
 def sheen_range_warnings(export: PrincipledExport, fmt: str) -> list[str]:
     """What keeping the sheen's colour within [0, 1] costs (`sheen_in_range`), if anything."""
     sheen, written = export.params["sheen"], export.sheen_in_range()
