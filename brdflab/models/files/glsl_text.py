@@ -12,6 +12,8 @@ comma in such a declaration) is declared there.
 
 from __future__ import annotations
 
+import ast
+import operator
 import re
 
 TYPES = frozenset(
@@ -23,7 +25,7 @@ TYPES = frozenset(
 _TOKEN = re.compile(r"""
     (?P<comment>//[^\n]*|/\*.*?\*/)
   | (?P<pre>\#[^\n]*)
-  | (?P<number>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[fFuU]?|0[xX][0-9a-fA-F]+[uU]?)
+  | (?P<number>0[xX][0-9a-fA-F]+[uU]?|(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[fFuU]?)
   | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
   | (?P<space>\s+)
   | (?P<other>.)
@@ -188,8 +190,11 @@ def _split_top(toks: list[tuple[str, str]], sep: str) -> list[str]:
     return parts + ["".join(cur)]
 
 
+_DEFINE_VALUE = re.compile(r"#\s*define\s+([A-Za-z_]\w*)[ \t]+([^\n]+)")
 _CONST = re.compile(r"\bconst\s+(?:u?int|float)\s+([A-Za-z_]\w*)\s*=\s*([^;]+);")
 MAX_CONSTANT_TOKENS = 64
+_OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+              ast.Mod: operator.mod}
 _BIG = 1 << 62  # past this a size is only "too large" (no big-integer arithmetic on a file's say-so)
 
 
@@ -201,7 +206,7 @@ def array_elements(text: str, positioned: list | None = None) -> tuple[int | Non
     Mesa takes tens of seconds and gigabytes to compile a large array. `positioned`: the
     text's `_positioned` tokens, where the caller has them."""
     consts: dict[str, float] = {}
-    for m in list(_CONST.finditer(text)) + [m for m in _DEFINE_VALUE.finditer(text)]:
+    for m in [*_CONST.finditer(text), *_DEFINE_VALUE.finditer(text)]:
         value = _constant(tokens(m.group(2)), consts)
         if value is not None:
             consts[m.group(1)] = value
@@ -235,9 +240,6 @@ def array_elements(text: str, positioned: list | None = None) -> tuple[int | Non
     return total, worst_line
 
 
-_DEFINE_VALUE = re.compile(r"#\s*define\s+([A-Za-z_]\w*)[ \t]+([^\n]+)")
-
-
 def _positioned(text: str) -> list[tuple[str, str, int, bool]]:
     """The code's tokens with their offsets and whether they are a macro's; a `#define`'s
     replacement text is read as code where the directive stands (`#define ARR float
@@ -253,8 +255,6 @@ def _positioned(text: str) -> list[tuple[str, str, int, bool]]:
 def _constant(toks, consts: dict[str, float]) -> float | None:
     """The value of a constant integer expression, or None where it is not one the lab reads
     (nor one longer than MAX_CONSTANT_TOKENS: a size is a short expression)."""
-    import ast
-
     if len(toks) > MAX_CONSTANT_TOKENS:
         return None
     text = []
@@ -265,7 +265,7 @@ def _constant(toks, consts: dict[str, float]) -> float | None:
             t = t.rstrip("uUfF") if not t.lower().startswith("0x") else t.rstrip("uU")
         elif kind == "name":
             if t in ("int", "uint", "float"):
-                t = "int" if t != "float" else "float"
+                t = "float" if t == "float" else "int"
             elif t in consts:
                 t = repr(consts[t])
             else:
@@ -284,13 +284,11 @@ def _constant(toks, consts: dict[str, float]) -> float | None:
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
             v = ev(node.operand)
             return -v if isinstance(node.op, ast.USub) else v
-        if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Mod)):
+        if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
             a, b = ev(node.left), ev(node.right)
             if isinstance(node.op, (ast.Div, ast.Mod)) and b == 0:
                 raise ValueError
-            v = {ast.Add: a + b, ast.Sub: a - b, ast.Mult: a * b}.get(type(node.op)) if not isinstance(
-                node.op, (ast.Div, ast.Mod)) else (a / b if isinstance(node.op, ast.Div) else a % b)
-            return max(-_BIG, min(_BIG, v))
+            return max(-_BIG, min(_BIG, _OPERATORS[type(node.op)](a, b)))
         if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and len(node.args) == 1
                 and not node.keywords):
             v = ev(node.args[0])
@@ -305,8 +303,9 @@ def _constant(toks, consts: dict[str, float]) -> float | None:
 
 def code_problem(text: str, max_array_elements: int) -> tuple[int, str] | None:
     """What the lab refuses in a model's GLSL before compiling it, with its line (1-based in
-    `text`): a `gl_` built-in variable, or arrays larger than `max_array_elements` together
-    (or of a size the lab cannot read)."""
+    `text`): a loop inside a `#define` (guarded_loops guards loops where they are written), a
+    `gl_` built-in variable, or arrays larger than `max_array_elements` together (or of a size
+    the lab cannot read)."""
     positioned = _positioned(text)
     for kind, t, offset, macro in positioned:
         if macro and kind == "name" and t in ("for", "while", "do"):
