@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from brdflab.errors import BRDFLabError
+from brdflab.errors import BRDFLabError, shown_path
 from brdflab.io.atomic import atomic_write, check_writable
 
 # the renderers' family: the source goes out as Disney's principled parameters (export/principled.py)
@@ -85,7 +85,7 @@ def export_name(source, path: Path, origin: Path | None) -> str:
     from brdflab.fitting.lm import FIT_NAME
 
     name = getattr(source, "name", None)
-    return name if name and name != FIT_NAME else (origin or path).stem
+    return name if name and name != FIT_NAME else shown_path((origin or path).stem)  # a label: text, whatever the name
 
 
 def _export_principled(source, fmt: str, path: Path, origin: Path | None, env, cancel) -> list[str]:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from lxml import etree
 
-from brdflab.errors import BRDFLabError
+from brdflab.errors import BRDFLabError, is_text_name
 from brdflab.export.principled import MIN_SPECULAR, PrincipledExport
 from brdflab.io.atomic import atomic_write, check_writable, write_target
 from brdflab.io.bounded import read_bounded
@@ -97,6 +97,9 @@ def check_map_destination(path: Path) -> None:
     """Refuse, before any work, a scene whose map would replace a file other than the map of
     the scene being replaced (a re-export replaces both, and says so)."""
     env_path = map_path(path)
+    if not is_text_name(env_path.name):
+        raise BRDFLabError("a Mitsuba scene names its map (NAME_env.exr) in its XML, which holds text only, and "
+                           "this name is not UTF-8 (choose another --out)", path)
     if os.path.lexists(env_path) and scene_map(write_target(path)) != env_path.name:
         raise BRDFLabError("a Mitsuba export writes its scene's map here, and this file is not the map of a scene "
                            "being replaced: refused (move it, or choose another --out)", env_path)

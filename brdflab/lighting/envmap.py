@@ -206,7 +206,9 @@ def read_exr(path: str | os.PathLike) -> np.ndarray:
     if not path.is_file():
         raise BRDFLabError("no such file", path)
     try:
-        with _native_output_silenced(), OpenEXR.File(str(path)) as f:
+        # a Python file, not str(path): OpenEXR encodes a name as UTF-8 and refused a valid map
+        # whose name is not UTF-8 (a Latin-1 name on a UTF-8 system) as "cannot decode"
+        with open(path, "rb") as stream, _native_output_silenced(), OpenEXR.File(stream) as f:
             channels = f.channels()
             if "RGB" in channels:
                 img = np.asarray(channels["RGB"].pixels, np.float32)
@@ -217,7 +219,7 @@ def read_exr(path: str | os.PathLike) -> np.ndarray:
             elif "Y" in channels:
                 img = np.repeat(np.asarray(channels["Y"].pixels, np.float32)[..., None], 3, axis=-1)
             else:
-                raise BRDFLabError(f"no RGB or Y channels (has {', '.join(channels)})", path)
+                raise BRDFLabError(f"no RGB or Y channels ({len(channels)} others)", path)  # not the file's names
     except BRDFLabError:
         raise
     except Exception as e:  # the library reports corrupt files with assorted exception types
@@ -258,8 +260,8 @@ def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     with atomic_path(path) as tmp:
         try:
-            with OpenEXR.File(header, {"RGB": img}) as f:
-                f.write(str(tmp))
+            with OpenEXR.File(header, {"RGB": img}) as f, open(tmp, "wb") as out:
+                f.write(out)  # a Python file: OpenEXR cannot encode a name that is not UTF-8
         except RuntimeError as e:  # the library reports write failures (a full disk) this way
             raise BRDFLabError(f"cannot write OpenEXR: {str(e).splitlines()[0] if str(e) else 'failed'}", path) from None
 
