@@ -139,6 +139,7 @@ def build_corpus(d: Path) -> None:
     (d / "no_charset" / "chardet.py").write_text("raise ImportError('not installed')\n")
     build_corpus_of_issue_30(d)
     build_corpus_of_issue_37_input(d)
+    build_corpus_of_issue_37_models(d)
 
 
 PHONG = '<ScalingFactors channel0="0.1" channel1="0.1" channel2="0.1"/>\n<Lobe><Model>BlinnPhong</Model><Type>Isotropic</Type>' \
@@ -336,6 +337,7 @@ def build_corpus_of_issue_37_input(d: Path) -> None:
     shutil.copy(FIG2, d / f"{NOT_UTF8}.xml")
     (d / f"{NOT_UTF8}.slice").write_bytes(slice_bytes(0.05))
     shutil.copy(d / "whole.exr", d / f"{NOT_UTF8}.exr")  # OpenEXR took the name as UTF-8: "cannot decode"
+    shutil.copy(d / "whole.exr", d / f"{NOT_UTF8}.exr")  # OpenEXR took the name as UTF-8: "cannot decode"
     # accepted nonsense
     fit = material(linear_lobe()).split("<Material>", 1)[1].split("</Material>", 1)[0]
     w("fitting_two_materials.xml", material(linear_lobe()).replace("</BRDF>", (
@@ -351,6 +353,43 @@ def build_corpus_of_issue_37_input(d: Path) -> None:
     w("bounds_1e308.brdf", _brdf("float k -1e308 1e308 0.5"))
     (d / "models_1e308").mkdir()
     w("models_1e308/bounds.brdf", _brdf("float k -1e308 1e308 0.5"))
+
+
+
+def _shader(body: str, head: str = "") -> str:
+    """A BRDF Explorer file of one parameter k whose BRDF's body (on line 7) is `body`."""
+    return (f"analytic\n::begin parameters\nfloat k 0 1 0.5\n::end parameters\n::begin shader\n{head}"
+            f"vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {{\n    {body}\n}}\n::end shader\n")
+
+
+def build_corpus_of_issue_37_models(d: Path) -> None:
+    """Model files of issue 37 §2: loops the driver stops silently, gl_ variables, huge arrays,
+    two files of one model name in the folders a command names."""
+    w = lambda name, text: (d / name).write_text(text, encoding="utf-8")  # noqa: E731
+    # llvmpipe ends a shader's loops at 65,536 iterations: these gave 65535.7 and 0.4172 (not 0.6366), status 0
+    w("loop_endless.brdf", _shader("float s = 0.0; while (s >= 0.0) s += k; return vec3(s);"))
+    w("loop_1e5.brdf", _shader("float s = 0.0; for (int i = 0; i < 100000; i++) s += k * 1.2732e-5; return vec3(s);"))
+    w("loop_nested.brdf", _shader("float s = 0.0; for (int i = 0; i < 300; i++) for (int j = 0; j < 300; j++) "
+                                  "s += 1e-5; return vec3(s);"))
+    w("while_true.brdf", _shader("while (true) {} return vec3(k);"))  # was "GLSL Linker failed"
+    w("loop_fine.brdf", _shader("float s = 0.0; for (int i = 0; i < 1000; i++) s += k * 1e-3; return vec3(s);"))
+    w("position.brdf", _shader("gl_Position = vec4(0.0); return vec3(k);"))
+    w("array_1e8.brdf", _shader("float a[100000000]; int i = int(k * 9.0); a[i] = k; return vec3(a[i]);"))
+    w("array_1e6.brdf", _shader("float a[M * M]; int i = int(k * 9.0); a[i] = k; return vec3(a[i]);",
+                                  "const int M = 1000;\n"))
+    w("array_hex.brdf", _shader("float a[0x5F5E100]; int i = int(k * 9.0); a[i] = k; return vec3(a[i]);"))
+    w("array_cast.brdf", _shader("float a, b[int(1e8)]; int i = int(k * 9.0); b[i] = k; return vec3(b[i]);"))
+    # what a directive (kept as GLSL) could hide: a loop the lab cannot count, an array it must count
+    w("loop_in_define.brdf", _shader("float s = 0.0; LOOP s += k; return vec3(s);",
+                                     "#define LOOP for (int i = 0; i < 100000; i++)\n"))
+    w("array_in_define.brdf", _shader("ARR; int i = int(k * 9.0); a[i] = k; return vec3(a[i]);",
+                                      "#define ARR float a[100000000]\n"))
+    lambert = _shader("return vec3(k / 3.14159265);")
+    for folder, k in (("twins_a", "0.5"), ("twins_b", "0.25")):
+        (d / folder).mkdir()
+        w(f"{folder}/twin.brdf", lambert.replace("0.5", k))
+    w("twins_a/good.brdf", lambert)
+
 
 @dataclass
 class Case:
@@ -560,6 +599,9 @@ CASES: dict[str, Case] = {
     "name-not-utf8-env-map": Case(R(str(FIG2), "--mode", "fis", "--env", f"{NOT_UTF8}.exr", "--json"), status=0),
     "name-not-utf8-mitsuba-map": Case(["export", str(FIG2), "--format", "mitsuba", "--out", f"{NOT_UTF8}-scene.xml"],
                                       names="mat\\xe9-scene.xml", words=("not utf-8",)),
+    "name-not-utf8-env-map": Case(R(str(FIG2), "--mode", "fis", "--env", f"{NOT_UTF8}.exr", "--json"), status=0),
+    "name-not-utf8-mitsuba-map": Case(["export", str(FIG2), "--format", "mitsuba", "--out", f"{NOT_UTF8}-scene.xml"],
+                                      names="mat\\xe9-scene.xml", words=("not utf-8",)),
     # accepted nonsense: refused in one line naming the element or attribute
     "fitting-two-materials": Case(["info", "fitting_two_materials.xml"], words=("<fitting> holds one <material>",)),
     "nbsp-after-number": Case(["info", "nbsp_number.xml"], words=("exponent", "not a number", "non-ascii space")),
@@ -598,6 +640,28 @@ CASES: dict[str, Case] = {
     "names-shadow-info": Case(["info", "mat/names_shadow.xml", "--json"], names="shadow",
                               words=("outside the material's folder", "folder policy"), leaks=SHADOW_DIMS),
     "names-fifo-info": Case(["info", "names_fifo.xml"], names="fifo.slice", words=("not a regular file", "fifo")),
+    # --- issue 37 §2: model files ---
+    # loops the driver would end silently: refused (never a wrong value), with the reason
+    "model-loop-endless": Case(E("loop_endless.brdf"), words=("loops run past 65,000 steps",)),
+    "model-loop-1e5": Case(E("loop_1e5.brdf"), words=("loops run past 65,000 steps",)),
+    "model-loop-nested": Case(E("loop_nested.brdf"), words=("loops run past 65,000 steps",)),
+    "model-while-true-empty": Case(E("while_true.brdf"), words=("loops run past 65,000 steps",)),
+    "model-loop-fine": Case(E("loop_fine.brdf"), status=0),
+    # GLSL's gl_ variables belong to the lab's shaders: refused by eval and render alike (render had a traceback)
+    "model-gl-position-eval": Case(E("position.brdf"), words=("line 7", "gl_position")),
+    "model-gl-position-render": Case(R("position.brdf"), words=("line 7", "gl_position")),
+    # arrays read before compiling (10⁸ floats took 40 s and 2.4 GB to be refused, 10⁶ 35 s)
+    "model-array-1e8": Case(E("array_1e8.brdf"), words=("line 7", "100,000,000 elements")),
+    "model-array-1e6-const": Case(E("array_1e6.brdf"), words=("1,000,000 elements",)),
+    "model-array-hex": Case(E("array_hex.brdf"), words=("100,000,000 elements",)),
+    "model-array-cast": Case(E("array_cast.brdf"), words=("100,000,000 elements",)),
+    "model-loop-in-define": Case(E("loop_in_define.brdf"), words=("line 6", "inside a #define")),
+    "model-array-in-define": Case(E("array_in_define.brdf"), words=("line 6", "100,000,000 elements")),
+    # two files of one model name in the folders a command names: both skipped, said, the rest usable
+    "models-folder-twins": Case(["models", "--models", "twins_a", "--models", "twins_b"], status=0, names="twin.brdf",
+                                words=("all are skipped",)),
+    "models-folder-twins-eval": Case(E("twins_a/good.brdf", "--models", "twins_a", "--models", "twins_b"), status=0,
+                                     names="twin.brdf", words=("all are skipped",)),
 }
 
 
