@@ -250,20 +250,21 @@ def _native_output_silenced() -> Iterator[None]:
 
 
 def write_exr(path: str | os.PathLike, image: np.ndarray) -> None:
-    """Write linear float32 RGB (H, W, 3) as OpenEXR (ZIP compression), atomically: through
-    a unique temporary file in the target folder, so concurrent writers never mix."""
+    """Write linear float32 RGB (H, W, 3) as OpenEXR (ZIP compression), atomically. Encoded
+    in memory and written by atomic_write: OpenEXR opens a file by a name it encodes as
+    UTF-8, so a name that is not UTF-8 could not be written (nor read) by name."""
+    import io
+
     import OpenEXR
 
-    from brdflab.io.atomic import atomic_path
+    from brdflab.io.atomic import atomic_write
 
     img = np.ascontiguousarray(image[..., :3], np.float32)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with atomic_path(path) as tmp:
-        try:
-            with OpenEXR.File(header, {"RGB": img}) as f, open(tmp, "wb") as out:
-                f.write(out)  # a Python file: OpenEXR cannot encode a name that is not UTF-8
-        except RuntimeError as e:  # the library reports write failures (a full disk) this way
-            raise BRDFLabError(f"cannot write OpenEXR: {str(e).splitlines()[0] if str(e) else 'failed'}", path) from None
+    buffer = io.BytesIO()
+    with OpenEXR.File(header, {"RGB": img}) as f:
+        f.write(buffer)
+    atomic_write(path, buffer.getvalue())
 
 
 def load_environment(path: str | os.PathLike, layout: str = "auto",
