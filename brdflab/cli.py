@@ -302,7 +302,8 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
         lobes = "+".join(("Lambertian", *c.lobes))
         errors = (f"{c.error_fitted:>10.5g} {c.error_held_back:>10.5g}" if c.fitted else
                   f"{'screened out (' + format(c.screen_error, '.4g') + ')':>21}")
-        lines.append(f"{mark:2}{c.rung:>4}  {lobes:<48} {c.parameters:>6} {errors} {c.seconds:>8.2f}")
+        screened = f"  ({c.screen_error:.4g})" if c.fitted and math.isfinite(c.screen_error) else ""
+        lines.append(f"{mark:2}{c.rung:>4}  {lobes:<48} {c.parameters:>6} {errors} {c.seconds:>8.2f}{screened}")
     lines.append(f"chosen (*): {ladder.reason}; {ladder.seconds:.1f} s in all")
     lines.append(f"its {ladder.metric} error on {chosen.scored_on}: {chosen.error:.6g} ({chosen.status})")
     if args.out:
@@ -549,12 +550,18 @@ def display_problem(env) -> str | None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from brdflab.export import check_destination, export_source
+    from brdflab.export import PRINCIPLED_FORMATS, check_destination, export_source, stored_principled
     from brdflab.sources.files import load_source
 
     out = Path(args.out)
     check_destination(args.format, out, Path(args.source))  # before the source is read (a simulation, a table)
-    source = load_source(Path(args.source), fitting=args.fitting)
+    warn = _warner(args)
+    source = load_source(Path(args.source), fitting=args.fitting, warn=warn)
+    if args.fitting is None and args.format in PRINCIPLED_FORMATS:
+        stored = stored_principled(Path(args.source), source)
+        if stored is not None:
+            warn(f"{args.source} stores a Principled fit (--fitting {stored}), which exports exactly: this export "
+                 "fits the material itself to Principled again")
     env = None
     if args.env_back and not args.env:
         raise BRDFLabError("--env-back names the back half of the dual-paraboloid pair given by --env")
@@ -566,7 +573,6 @@ def cmd_export(args: argparse.Namespace) -> int:
         warnings = export_source(source, args.format, out, origin=Path(args.source), env=env)
     except OSError as e:
         raise BRDFLabError(f"cannot write: {e.strerror}", out) from None
-    warn = _warner(args)
     if env is not None and args.format != "mitsuba":
         warn(f"--env is for a Mitsuba scene's map: a {args.format} export has none")
     for line in warnings:

@@ -98,3 +98,64 @@ def test_a_mitsuba_map_never_replaces_a_file_it_did_not_write(tmp_path):
     again = brdflab("export", CAR_PAINT, "--format", "mitsuba", "--out", scene)
     assert again.returncode == 0 and "replaced" in again.stderr and "paint_env.exr" in again.stderr, again.stderr
     assert len(again.stderr.strip().splitlines()) == 1
+
+
+def measured_fit(folder: Path) -> tuple[Path, Path]:
+    """A MERL table (tabulated from the shipped Lambertian example) and a fit saved beside it,
+    as `brdflab fit TABLE --out FIT.xml` saves one: the material reads the table."""
+    from brdflab.io.xmlio import load
+    from brdflab.sources.measured import tabulate, write_merl_binary
+
+    table = folder / "lambert.binary"
+    write_merl_binary(tabulate(load(ROOT / "materials" / "lambertian.xml").material), table)
+    fit = folder / "fit.xml"
+    r = brdflab("fit", table, "--lobes", "Lambertian", "--samples", "subset", "--size", "500", "--out", fit)
+    assert r.returncode == 0, r.stderr
+    return table, fit
+
+
+def test_an_export_never_replaces_the_data_its_source_reads(tmp_path):
+    """A user's trial: `export fit.xml --fitting 0 --format merl --out TABLE.binary` replaced the
+    very table the material names, silently; `info` then said the table had changed."""
+    table, fit = measured_fit(tmp_path)
+    before = table.read_bytes()
+    r = brdflab("export", fit, "--fitting", "0", "--format", "merl", "--out", table)
+    assert refused(r, "lambert.binary", "the measured data file that the material being exported reads"), r.stderr
+    assert table.read_bytes() == before
+    link = tmp_path / "other.binary"
+    link.symlink_to(table)
+    r = brdflab("export", fit, "--fitting", "0", "--format", "merl", "--out", link)
+    assert refused(r, "other.binary", "that the material being exported reads"), r.stderr
+    assert table.read_bytes() == before
+
+
+def test_an_export_says_its_model_file_changed_as_every_command_does(tmp_path):
+    """`info`, `eval`, `render` and `fit` of a material whose model file was edited since the save
+    say so; `export` was silent."""
+    models = tmp_path / "models"
+    models.mkdir()
+    shutil.copy(ROOT.parent / "shared" / "data" / "models" / "brdf_explorer" / "lambert.brdf", models / "flat.brdf")
+    material = tmp_path / "m.xml"
+    r = brdflab("fit", "example:lambertian", "--lobes", f"{models / 'flat.brdf'}", "--samples", "subset", "--size", "300",
+                "--out", material)
+    assert r.returncode == 0, r.stderr
+    with open(models / "flat.brdf", "a") as f:
+        f.write("\n# edited after the save\n")
+    r = brdflab("export", material, "--fitting", "0", "--format", "glsl", "--out", tmp_path / "m.glsl")
+    assert r.returncode == 0 and "is not the one the material was saved with" in r.stderr, r.stderr
+
+
+def test_an_export_of_a_material_that_stores_a_principled_fit_points_to_it(tmp_path):
+    """A user's trial: `export fit.xml` of a file holding a Principled fit fitted the source again
+    (minutes) and never said that `--fitting 0` exports the stored fit exactly."""
+    from test_fit_cache import ward_samples
+
+    source = tmp_path / "ward.txt"
+    ward_samples(source)
+    fit = tmp_path / "fit.xml"
+    r = brdflab("fit", source, "--lobes", "Principled", "--max-iterations", "3", "--no-restarts", "--out", fit)
+    assert r.returncode == 0, r.stderr
+    r = brdflab("export", fit, "--format", "mtlx", "--out", tmp_path / "again.mtlx")
+    assert r.returncode == 0 and "stores a Principled fit (--fitting 0), which exports exactly" in r.stderr, r.stderr
+    r = brdflab("export", fit, "--fitting", "0", "--format", "mtlx", "--out", tmp_path / "stored.mtlx")
+    assert r.returncode == 0 and "stores a Principled fit" not in r.stderr and "fitted to Principled" not in r.stderr

@@ -177,6 +177,9 @@ def test_cli_auto_out_writes_a_fitting_that_info_lists(tmp_path):
     assert fitting["statistics"]["heldBackSamples"] == 1000
     text = _cli("fit", str(SLICE), "--auto", "--models", "BlinnPhong", "--size", "500", cwd=tmp_path)
     assert text.returncode == 0 and "held back" in text.stdout and "*" in text.stdout
+    # a screened candidate that was then fitted fully shows its screening's error in brackets, as the header says
+    rows = [l for l in text.stdout.splitlines() if re.match(r"^\*?\s+1\s+Lambertian\+BlinnPhong ", l)]
+    assert len(rows) == 1 and re.search(r"\([\d.e-]+\)$", rows[0]), text.stdout
     # progress: a line on stderr per screen and full fit, with rung, candidate, best so far and elapsed time
     lines = [l for l in proc.stderr.splitlines() if l.startswith("brdflab fit: auto: ")]
     fitted = [c for c in ladder["candidates"] if c["fitted"]]

@@ -37,11 +37,51 @@ def check_destination(fmt: str, path: Path, origin: Path | None = None) -> None:
     if origin is not None and _same_file(path, origin):
         raise BRDFLabError("it is the file being exported: an export never replaces its source (choose another "
                            "--out)", path)
+    for kind, named in files_read_by(origin):
+        if _same_file(path, named):
+            raise BRDFLabError(f"it is the {kind} that the material being exported reads: an export never replaces "
+                               "what its source reads (choose another --out)", path)
     check_writable(path)
     if fmt == "mitsuba":
         from brdflab.export.mitsuba import check_map_destination
 
         check_map_destination(path)
+
+
+def stored_principled(origin: Path, source) -> int | None:
+    """The index of the first stored fit of the XML material `origin` that is exactly one
+    Principled lobe, when `source` itself is not one; else None."""
+    from brdflab.export.principled import exact_principled
+
+    if exact_principled(source) is not None or origin.suffix.lower() != ".xml":
+        return None
+    from brdflab.io.xmlio import load
+
+    for k, fitting in enumerate(load(origin).fittings):
+        if exact_principled(fitting.material) is not None:
+            return k
+    return None
+
+
+def files_read_by(origin: Path | None) -> list[tuple[str, Path]]:
+    """The files an XML material reads besides itself: its measured data and the model files
+    of its lobes and stored fits, as (what it is, path); none for anything else."""
+    if origin is None or origin.suffix.lower() != ".xml" or not origin.is_file():
+        return []
+    from brdflab.io.xmlio import MeasuredReference, load
+    from brdflab.material.analytic import AnalyticMaterial
+
+    try:
+        doc = load(origin)
+    except BRDFLabError:
+        return []  # what cannot be read is refused, in its own words, when the export reads it
+    read = [("measured data file", doc.material.path)] if isinstance(doc.material, MeasuredReference) else []
+    materials = [doc.material, *(f.material for f in doc.fittings)]
+    for material in materials:
+        if isinstance(material, AnalyticMaterial):
+            read += [("model file", lobe.model.origin.path) for lobe in material.lobes
+                     if getattr(lobe.model, "origin", None) is not None]
+    return read
 
 
 def _same_file(a: Path, b: Path) -> bool:
