@@ -69,3 +69,21 @@ def test_the_plots_never_show_the_previous_document_after_an_open(window, qtbot,
     assert plots.image.text().startswith("plotting") and "measured.binary" in plots.image.text()
     qtbot.waitUntil(lambda: not plots.image.pixmap().isNull(), timeout=120000)  # then the new document's
     assert plots._last[0] is window.workspace.original()
+
+
+def test_views_follow_the_document_through_its_events(window, qtbot):  # noqa: F811
+    """The document is evented (gui/document.py): an edit replaced through it reaches the
+    views, and another document shown clears what belonged to the last one, without the
+    window pushing into each view."""
+    from brdflab.workspace import Workspace
+
+    material = window.workspace.analytic.copy()
+    material.lobes[1].params["Exponent"] = 12.0
+    window.document.replace_material(material)
+    assert window.editor.material is material
+    assert window.lobe_view.viewer._layers[0].source is material
+    window.fitting.status.setText("Ngan error 0.1 after 9 iterations")
+    other = Workspace.new()
+    window.document.show(other)
+    assert window.workspace is other
+    assert window.fitting.status.text() == "" and window.plots.image.text().startswith("plotting")

@@ -28,12 +28,10 @@ class ReplaceMaterial(QUndoCommand):
         return False
 
     def redo(self) -> None:
-        self.window.workspace.replace_material(self.new)
-        self.window.material_changed()
+        self.window.document.replace_material(self.new)
 
     def undo(self) -> None:
-        self.window.workspace.replace_material(self.old)
-        self.window.material_changed()
+        self.window.document.replace_material(self.old)
 
 
 class ReplaceFittings(QUndoCommand):
@@ -42,9 +40,7 @@ class ReplaceFittings(QUndoCommand):
         self.window, self.old, self.new = window, old, new
 
     def redo(self) -> None:
-        self.window.workspace.replace_fittings(list(self.new[0]), self.new[1])
-        self.window.fittings_changed()
+        self.window.document.replace_fittings(list(self.new[0]), self.new[1])
 
     def undo(self) -> None:
-        self.window.workspace.replace_fittings(list(self.old[0]), self.old[1])
-        self.window.fittings_changed()
+        self.window.document.replace_fittings(list(self.old[0]), self.old[1])

@@ -29,12 +29,7 @@ class DocumentFiles:
         if self._thread is not None and workspace is not self._fit_owner:
             self._thread.cancel.set()  # the running fit belongs to the document being closed
             self.fitting.status.setText("stopping the run of the closed document…")
-        if workspace is not self.workspace:  # nothing of the closed document stays drawn
-            self._fit_history, self._candidate = [], None
-            if self._thread is None:
-                self.fitting.status.setText("")  # nor said: its last run's result
-            self.plots.new_document(workspace.title.rstrip(" *"))
-        self.workspace = workspace
+        self.document.show(workspace)  # `switched`: nothing of the closed document stays drawn
         self.locate_button.setVisible(workspace.data_missing)
         self._unsaved_at_clean = workspace.dirty
         self.undo_stack.clear()
@@ -44,6 +39,13 @@ class DocumentFiles:
         self._binning_note()
         for message in workspace.messages:
             self.statusBar().showMessage(message, 10000)
+
+    def _forget_closed_document(self, workspace: Workspace) -> None:
+        """Another document is shown: the closed one's fit progress is dropped and its last
+        run's result no longer said; the Plots panel follows `switched` itself."""
+        self._fit_history, self._candidate = [], None
+        if self._thread is None:
+            self.fitting.status.setText("")
 
     def maybe_save(self) -> bool:
         """True when it is fine to discard the current document."""

@@ -28,6 +28,7 @@ from brdflab.gui.auto_lighting import chosen, choose_job
 from brdflab.gui.background import AutoFitProcess, FitProcess, LatestOnly
 from brdflab.gui.charts import ChartsPanel
 from brdflab.gui.commands import ReplaceMaterial
+from brdflab.gui.document import ShownDocument
 from brdflab.gui.documents import DocumentFiles
 from brdflab.gui.fit_control import FitControl
 from brdflab.gui.window_actions import WindowActions
@@ -89,7 +90,7 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self.undo_stack.cleanChanged.connect(self._clean_changed)
         self.undo_stack.indexChanged.connect(self._index_changed)
         self._unsaved_at_clean = False  # a new document (e.g. opened data) that no file holds yet
-        self.workspace = Workspace.new()
+        self.document = ShownDocument(Workspace.new(), self)  # evented: views subscribe to it
         self._thread: FitProcess | AutoFitProcess | None = None  # the running fit
         self._auto_ladder: tuple[Workspace, Ladder] | None = None  # the last Auto run and its document
         self._candidate = None
@@ -194,6 +195,10 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self._fit_view_timer.timeout.connect(self._show_fit_progress_on_object)
         self._build_menus()
         self._connect()
+        self.plots.follow(self.document)
+        self.document.switched.connect(self._forget_closed_document)
+        self.document.material_changed.connect(self.material_changed)
+        self.document.fittings_changed.connect(self.fittings_changed)
         self.lobe_view.when_ready(lambda: None)
         self.object_view.when_ready(self._default_scene)
         geometry = self.settings.value("geometry")
@@ -212,6 +217,11 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self._object_settings_changed()
         self.set_workspace(self.workspace)
         self.load_model_folders()
+
+    @property
+    def workspace(self) -> Workspace:
+        """The document shown (self.document's)."""
+        return self.document.workspace
 
     # --- models from files ------------------------------------------------------------------------
     def model_folders(self) -> list[Path]:

@@ -816,6 +816,10 @@ class PlotsPanel(QWidget):
         self._last: tuple | None = None
         self._document = 0  # numbers the documents shown: plots of an earlier one are dropped
 
+    def follow(self, document) -> None:
+        """Subscribe to the shown document (gui.document.ShownDocument): another one shown, these plots go."""
+        document.switched.connect(lambda workspace: self.new_document(workspace.title.rstrip(" *")))
+
     def new_document(self, title: str) -> None:
         """Another document is shown: nothing of the last one stays drawn while its plots are
         computed (a measured table's take 14–45 s; the old plots stayed up meanwhile, marked
