@@ -3,9 +3,9 @@ same fitter, is read back from the user's cache instead of run again (issue 35: 
 of a measured source refitted Principled from scratch, 2–6 minutes each).
 
 The key is a SHA-256 of what decides the result: the samples' content (`SampleSet.digest`),
-the start (its lobes, parameters and scales), the options, and the fitter's own code (the
-source of the fitting and model modules it runs), so a changed fitter never returns an old
-answer. An entry is one small JSON file written atomically; one that cannot be read, or
+the start (its lobes, parameters and scales), the options, and the code a fit runs (the
+source of the fitting, models, material and geometry packages), so a changed fitter or model
+never returns an old answer. An entry is one small JSON file written atomically; one that cannot be read, or
 whose parameters a material may not hold, is fitted again and rewritten. Only fits that ran
 to their end are kept (not a cancelled one, nor one cut by a time limit).
 """
@@ -27,20 +27,20 @@ from brdflab.material.analytic import AnalyticMaterial
 
 KIND = "fits"
 VERSION = 1  # of the entry's layout
+CODE = ("fitting", "models", "material", "geometry")  # the packages whose code decides a fit's result
 
 
-def _code_digest(material: AnalyticMaterial) -> str:
-    """SHA-256 of the fitter's modules and of each lobe model's module, as they are on disk
-    (read once per fit: a few hundred kB)."""
-    import inspect
+def _code_digest() -> str:
+    """SHA-256 of the source of every module a fit runs (the fitting, models, material and
+    geometry packages, file models' code included), as it is on disk: a few hundred kB."""
+    import brdflab
 
-    from brdflab.fitting import lm, metrics, nnls, samples
-
-    modules = [lm, metrics, nnls, samples, *(inspect.getmodule(type(l.model)) for l in material.lobes)]
+    root = Path(brdflab.__file__).parent
     h = hashlib.sha256()
-    for module in modules:
-        path = getattr(module, "__file__", None)
-        h.update(Path(path).read_bytes() if path else repr(module).encode())
+    for package in CODE:
+        for path in sorted((root / package).rglob("*.py")):
+            h.update(path.relative_to(root).as_posix().encode())
+            h.update(path.read_bytes())
     return h.hexdigest()
 
 
@@ -55,7 +55,7 @@ def fit_key(start: AnalyticMaterial, samples: SampleSet, options: FitOptions) ->
         "channels": start.n_channels,
         "options": {k: v for k, v in dataclasses.asdict(options).items() if k not in ("workers", "time_limit")},
         "samples": samples.digest(),
-        "code": _code_digest(start),
+        "code": _code_digest(),
     }
     return hashlib.sha256(json.dumps(described, sort_keys=True, default=repr).encode()).hexdigest()
 
@@ -89,9 +89,10 @@ def _write(key: str, result: FitResult) -> None:
              "error": result.error, "zero_error": result.zero_error, "iterations": result.iterations,
              "status": result.status, "message": result.message, "warnings": result.warnings,
              "scored_on": result.scored_on, "seconds": result.seconds}
+    path = _entry_path(key)
     try:
-        _entry_path(key).parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(_entry_path(key), json.dumps(entry).encode())
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(path, json.dumps(entry).encode())
     except (OSError, BRDFLabError):
         pass  # an unwritable cache only costs time
 

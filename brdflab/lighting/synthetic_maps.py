@@ -21,6 +21,7 @@ from functools import lru_cache
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.lighting.env_sampling import LUMINANCE
 from brdflab.lighting.envmap import EnvironmentMap, band_solid_angle, uv_to_direction
 
 CLASSES = ("sky", "sun", "interior", "night", "studio")
@@ -188,11 +189,11 @@ def clear_sky(width: int, height: int, turbidity: float, elevation: float, azimu
     image = preetham_sky(d, turbidity, sun)
     if sun_radius is not None:
         solid = band_solid_angle(np.arange(height) / height, (np.arange(height) + 1) / height, width)[:, None]
-        lum = image @ np.array([0.2126, 0.7152, 0.0722])
+        lum = image @ LUMINANCE
         sky_irradiance = float((lum * np.maximum(d[..., 1], 0.0) * solid).sum())
         disc_solid = 2.0 * math.pi * (1.0 - math.cos(math.radians(sun_radius)))
         warm = np.array([1.0, 0.93, 0.82]) if elevation > 15 else np.array([1.0, 0.7, 0.45])
-        radiance = sun_to_sky * sky_irradiance / disc_solid * warm / (warm @ np.array([0.2126, 0.7152, 0.0722]))
+        radiance = sun_to_sky * sky_irradiance / disc_solid * warm / (warm @ LUMINANCE)
         add_disc(image, sun, sun_radius, tuple(radiance))
     return image
 
