@@ -44,7 +44,7 @@ def test_a_run_stopped_with_its_document_is_not_said_in_another_documents_panel(
     first, second = _measured(tmp_path, "first", 0.2), _measured(tmp_path, "second", 0.4)
     open_and_wait(qtbot, window, window.open_path, first)
     window.fitting.fit_button.click()
-    qtbot.waitUntil(lambda: window._candidate is not None, timeout=30000)
+    qtbot.waitUntil(lambda: window.document.running is not None, timeout=30000)
     said = []
     window.statusBar().messageChanged.connect(said.append)
     open_and_wait(qtbot, window, window.open_path, second)  # the fit of `first` is stopped
@@ -84,6 +84,77 @@ def test_views_follow_the_document_through_its_events(window, qtbot):  # noqa: F
     assert window.lobe_view.viewer._layers[0].source is material
     window.fitting.status.setText("Ngan error 0.1 after 9 iterations")
     other = Workspace.new()
+    other.document.material.name = "other"
     window.document.show(other)
     assert window.workspace is other
     assert window.fitting.status.text() == "" and window.plots.image.text().startswith("plotting")
+    # every view shows the other document, no window call in between
+    assert window.editor.material is other.analytic
+    assert window.lobe_view.viewer._layers[0].source is other.analytic
+    qtbot.waitUntil(lambda: window.object_view.renderer.source is other.analytic, timeout=5000)
+    window._docks["XML"].raise_()
+    qtbot.waitUntil(lambda: "<Name>other</Name>" in window.xml.toPlainText(), timeout=5000)
+
+
+def test_each_view_subscribes_to_the_document_itself(qtbot):
+    """The views need no window to follow a document (issue 37 §4's design point): the material
+    editor, the fits list, the XML, the plots, the lobe viewer and the object view, each built
+    alone beside one ShownDocument, show its edits, its fits, a fit chosen, a running fit and
+    another document."""
+    from brdflab.gui.document import ShownDocument
+    from brdflab.gui.gl_views import LobeView, ObjectView
+    from brdflab.gui.lobe_feed import LobeViewFeed
+    from brdflab.gui.object_feed import ObjectViewFeed
+    from brdflab.gui.panels import FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView
+    from brdflab.io.mesh import default_mesh
+    from brdflab.io.xmlio import Fitting
+    from brdflab.workspace import Workspace
+
+    first = Workspace.new()
+    document = ShownDocument(first)
+    editor, fits, xml, plots = MaterialEditor(), FittingPanel(), XmlView(), PlotsPanel()
+    lobe_view, object_view = LobeView(), ObjectView()
+    object_controls = ObjectControls()
+    object_controls.shown.setCurrentText("fitted")
+    for view in (editor, fits, xml):
+        view.follow(document)
+    plots.follow(document, lambda: 30.0)
+    LobeViewFeed(document, lobe_view, LobeControls(), pytest.fail)
+    warnings = {}
+    ObjectViewFeed(document, object_view, object_controls, warnings.__setitem__, pytest.fail)
+    for widget in (editor, fits, xml, plots, lobe_view, object_view):
+        qtbot.addWidget(widget)
+        widget.resize(400, 300)
+        widget.show()
+    qtbot.waitUntil(lambda: object_view.ctx is not None and lobe_view.ctx is not None, timeout=10000)
+    object_view.when_ready(lambda: object_view.renderer.set_mesh(default_mesh("meshes/spot.obj")))
+    layers = lambda: [layer.source if layer is not None else None for layer in lobe_view.viewer._layers]  # noqa: E731
+
+    edited = first.analytic.copy()
+    edited.name = "edited"
+    document.replace_material(edited)
+    assert editor.material is edited and layers()[0] is edited
+    qtbot.waitUntil(lambda: "<Name>edited</Name>" in xml.toPlainText(), timeout=5000)
+    qtbot.waitUntil(lambda: object_view.renderer.source is edited, timeout=5000)
+
+    fit = edited.copy()
+    document.replace_fittings([Fitting(material=fit, error=0.25)], 0)
+    assert fits.fits.count() == 1 and layers()[1] is fit
+    qtbot.waitUntil(lambda: object_view.renderer.source is fit, timeout=5000)  # "fitted" shows the fit
+    qtbot.waitUntil(lambda: plots._last is not None and plots._last[1] is fit, timeout=5000)
+
+    running = edited.copy()
+    document.start_run()
+    document.show_progress(running, 3, 0.5)
+    assert layers()[1] is running and lobe_view.viewer.labels[1].startswith("fit running")
+    qtbot.waitUntil(lambda: object_view.renderer.source is running, timeout=5000)  # coalesced, not dropped
+    qtbot.waitUntil(lambda: plots._last[1] is running and plots._last[3] == [(3, 0.5)], timeout=5000)
+    document.end_run()
+    assert layers()[1] is fit
+
+    second = Workspace.new()
+    document.show(second)
+    assert editor.material is second.analytic and fits.fits.count() == 0
+    assert layers() == [second.analytic, None] and document.running is None
+    qtbot.waitUntil(lambda: object_view.renderer.source is second.analytic, timeout=5000)
+    qtbot.waitUntil(lambda: plots._last[0] is second.analytic and plots._last[3] == [], timeout=5000)

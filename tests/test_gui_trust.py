@@ -40,8 +40,8 @@ def test_every_view_follows_a_document_opened_while_a_fit_runs(window, qtbot, tm
     window.fitting.lobes.setCurrentText("Lambertian,CookTorrance,CookTorrance")
     window.fitting.sample_kind.setCurrentText("all")
     window.fitting.fit_button.click()
-    qtbot.waitUntil(lambda: window._candidate is not None, timeout=30000)  # the fit has drawn its parameters
-    old_fit = window._candidate
+    qtbot.waitUntil(lambda: window.document.running is not None, timeout=30000)  # the fit has drawn its parameters
+    old_fit = window.document.running
     open_and_wait(qtbot, window, window.open_path, second)  # discarding the first, the fit still running
     qtbot.waitUntil(lambda: window._thread is None, timeout=60000)
     qtbot.wait(600)  # the coalesced plot and object-view refreshes have run

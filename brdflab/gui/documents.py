@@ -29,21 +29,18 @@ class DocumentFiles:
         if self._thread is not None and workspace is not self._fit_owner:
             self._thread.cancel.set()  # the running fit belongs to the document being closed
             self.fitting.status.setText("stopping the run of the closed document…")
-        self.document.show(workspace)  # `switched`: nothing of the closed document stays drawn
         self.locate_button.setVisible(workspace.data_missing)
         self._unsaved_at_clean = workspace.dirty
         self.undo_stack.clear()
-        self.material_changed()
-        self.fittings_changed()
+        self.document.show(workspace)  # `switched`: nothing of the closed document stays drawn
         self._show_own_ladder()
         self._binning_note()
         for message in workspace.messages:
             self.statusBar().showMessage(message, 10000)
 
     def _forget_closed_document(self, workspace: Workspace) -> None:
-        """Another document is shown: the closed one's fit progress is dropped and its last
-        run's result no longer said; the Plots panel follows `switched` itself."""
-        self._fit_history, self._candidate = [], None
+        """Another document is shown: the closed one's last run is no longer said (the
+        document drops its progress, the views follow `switched` themselves)."""
         if self._thread is None:
             self.fitting.status.setText("")
 
@@ -138,8 +135,7 @@ class DocumentFiles:
         self._unsaved_at_clean = True
         self.locate_button.setVisible(ws.data_missing)
         ws.guess = None
-        self.material_changed()
-        self.fittings_changed()
+        self.document.show(ws)  # the same document read again: every view refreshes
         self._binning_note()
         for message in ws.messages:
             self.statusBar().showMessage(message, 10000)
@@ -167,7 +163,7 @@ class DocumentFiles:
             self._env_files = (Path(path), back)
             self.object_view.when_ready(lambda: self.object_view.renderer.set_environment(env))
             self.object_view.restart()
-            self._request_auto_lighting()
+            self.object_feed.request_auto_lighting()
             self._map_note(env)
             self.statusBar().showMessage(f"environment {env.path} ({env.layout})", 5000)
 
@@ -215,14 +211,14 @@ class DocumentFiles:
 
     def _save_to(self, path: Path) -> bool:
         try:
-            self.workspace.save(path)
+            self.document.save(path)
         except BRDFLabError as e:
             self.show_error(str(e))
             return False
         self._unsaved_at_clean = False
         self.undo_stack.setClean()
         self._remember(path)
-        self._refresh_text()
+        self._update_title()
         self.statusBar().showMessage(f"saved {path}", 5000)
         return True
 

@@ -56,7 +56,7 @@ class FitControl:
                       starting: str) -> None:
         """Run a fit or an Auto run's worker for the document open now, the panel showing it."""
         self._fit_owner = self.workspace
-        self._fit_history = []
+        self.document.start_run()
         self._thread = thread
         thread.started.connect(lambda n: self.fitting.status.setText(started(n)))
         thread.progress.connect(progress)
@@ -76,23 +76,13 @@ class FitControl:
     def _fit_progress(self, p: FitProgress) -> None:
         if self._fit_owner is not self.workspace:
             return  # a report of a fit of a closed document: no view draws it
-        self._candidate = p.material
-        self._fit_history.append((p.iteration, p.error))
-        if not self._plot_timer.isActive():  # the convergence plot follows the fit, coalesced
-            self._plot_timer.start()
         self.fitting.status.setText(f"{p.stage}: iteration {p.iteration}, {self._thread.options.metric} error {p.error:.6g}")
-        self._push_lobe_sources()
-        if not self._fit_view_timer.isActive():
-            self._fit_view_timer.start()
-
-    def _show_fit_progress_on_object(self) -> None:
-        if self._candidate is not None and self.object_controls.shown.currentText() != "original":
-            self._push_object_source()
+        self.document.show_progress(p.material, p.iteration, p.error)  # the views draw it, coalesced
 
     def _end_fit(self) -> None:
         self.fitting.set_running(False)
-        self._candidate = None
         self._thread = None
+        self.document.end_run()
 
     def _store_in_owner(self, fitting, what: str) -> Workspace | None:
         """End the running fit or Auto run and store its fitting, undoably, in the document it
@@ -120,7 +110,6 @@ class FitControl:
         self._end_fit()
         self.fitting.status.setText(message)
         self.show_error(message)
-        self.fittings_changed()
 
     def start_auto(self, settings: dict) -> None:
         """Auto (fitting/auto.py) on the source's samples, in a worker process like a fit; the
@@ -174,12 +163,6 @@ class FitControl:
         dock.raise_()
         if not dock.isFloating() and dock.height() < LADDER_HEIGHT:
             self.resizeDocks([dock], [min(LADDER_HEIGHT, self.height() // 2)], Qt.Vertical)
-
-    def _select_fit(self, index: int) -> None:
-        self.workspace.shown_fit = index
-        self._push_lobe_sources()
-        self._push_object_source()
-        self._plot_timer.start()
 
     def _refit(self, index: int) -> None:
         start = self.workspace.document.fittings[index].material.copy()

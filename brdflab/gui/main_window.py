@@ -21,24 +21,22 @@ from brdflab.sources.measured import MeasuredTable
 from brdflab.workspace import Workspace
 
 MODEL_FILTER = "Model files (*.brdf *.xml);;BRDF Explorer (*.brdf);;BRDFLab model descriptors (*.xml);;All files (*)"
-from brdflab.io.xmlio import to_text
 from brdflab.gui.gl_views import LobeView, ObjectView
 from brdflab.gui.auto_ladder import AutoLadderPanel
-from brdflab.gui.auto_lighting import chosen, choose_job
-from brdflab.gui.background import AutoFitProcess, FitProcess, LatestOnly
+from brdflab.gui.background import AutoFitProcess, FitProcess
 from brdflab.gui.charts import ChartsPanel
 from brdflab.gui.commands import ReplaceMaterial
 from brdflab.gui.document import ShownDocument
 from brdflab.gui.documents import DocumentFiles
 from brdflab.gui.fit_control import FitControl
+from brdflab.gui.lobe_feed import LobeViewFeed
+from brdflab.gui.object_feed import ObjectViewFeed
 from brdflab.gui.window_actions import WindowActions
 from brdflab.gui.fields import FieldGuard
 from brdflab.gui.window_layout import ColumnKeeper
-from brdflab.gui.panels import (AUTO_LEVEL_TOLERANCE, PENDING_STYLE, SHOWN, WARNING_STYLE, FittingPanel, LobeControls,
-                                MaterialEditor, ObjectControls, PlotsPanel, XmlView, auto_level_job, energy_summaries,
-                                refine_job, scrolling)
+from brdflab.gui.panels import (FittingPanel, LobeControls, MaterialEditor, ObjectControls, PlotsPanel, XmlView,
+                                scrolling)
 from brdflab.fitting.diagnosis import bound_warnings, energy_words
-from brdflab.gui.panels import sh_table_request
 
 LAYOUT_VERSION = 5  # 2: the lobe viewer became the central view; 3: the Charts dock; 4: the Auto ladder dock;
 # 5: the left column the window's full height
@@ -93,7 +91,6 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self.document = ShownDocument(Workspace.new(), self)  # evented: views subscribe to it
         self._thread: FitProcess | AutoFitProcess | None = None  # the running fit
         self._auto_ladder: tuple[Workspace, Ladder] | None = None  # the last Auto run and its document
-        self._candidate = None
         self._loader = ThreadPoolExecutor(max_workers=1)
         self._loads: list = []
         self._env_files: tuple[Path, Path | None] = (data_dir("resources") / DEFAULT_ENV, None)  # reopened in a new layout
@@ -107,7 +104,6 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self.locate_button.clicked.connect(self.locate_data_dialog)
         self.statusBar().addPermanentWidget(self.locate_button)
         self._fit_owner: Workspace | None = None  # the document a running fit belongs to
-        self._fit_history: list[tuple[int, float]] = []  # (iteration, error) of the running or last fit
 
         self.lobe_view = LobeView()
         self.object_view = ObjectView()
@@ -165,40 +161,9 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self._default_layout = self.saveState(LAYOUT_VERSION)
         self._left_keeper = ColumnKeeper(self, self._docks["Material"])
         self._warnings: dict[str, str] = {}  # what is wrong, by topic, shown above the views
-        self._fits_energy_job = LatestOnly(energy_summaries, self)
-        self._fits_energy_job.done.connect(self._fits_energy_known)
-        self._auto_level_for = None  # what the auto subdivision was last computed for
-        self._auto_level_job = LatestOnly(auto_level_job, self)
-        self._auto_level_job.done.connect(self._auto_level_known)
-        self._auto_level_job.failed.connect(lambda m: self.lobe_controls.auto_level_note.setText(f"failed: {m}"))
-        self._refine_for: tuple | None = None  # (key, sources) the refined lobe surface was last asked for
-        self._refine_job = LatestOnly(refine_job, self)
-        self._refine_job.done.connect(self._refined_known)
-        self._refine_job.failed.connect(self.show_error)
-        self._auto_lighting_for: tuple | None = None  # (source, map, tolerance) the last choice was asked for
-        self._auto_lighting_token = 0  # numbers the requests: an answer to an older one is dropped
-        self._auto_choice = None  # the lighting.auto.LightingChoice the object view draws with
-        self._auto_lighting_job = LatestOnly(choose_job, self)
-        self._auto_lighting_job.done.connect(self._auto_lighting_known)
-        self._auto_lighting_job.failed.connect(
-            lambda m: self.object_controls.show_auto_note(f"auto: the choice failed: {m}", style=WARNING_STYLE))
-
-        self._xml_timer = QTimer(self, singleShot=True, interval=150)
-        self._xml_timer.timeout.connect(self._refresh_xml)
-        self._xml_stale = False
-        self._docks["XML"].visibilityChanged.connect(self._xml_dock_shown)
-        self._plot_timer = QTimer(self, singleShot=True, interval=250)
-        self._plot_timer.timeout.connect(self._refresh_plots)
-        # a running fit reaches the object view twice a second, not at every report (each
-        # restarted its image before it had more than a sample: 60–330 ms of GL per restart)
-        self._fit_view_timer = QTimer(self, singleShot=True, interval=500)
-        self._fit_view_timer.timeout.connect(self._show_fit_progress_on_object)
         self._build_menus()
+        self._follow_document()
         self._connect()
-        self.plots.follow(self.document)
-        self.document.switched.connect(self._forget_closed_document)
-        self.document.material_changed.connect(self.material_changed)
-        self.document.fittings_changed.connect(self.fittings_changed)
         self.lobe_view.when_ready(lambda: None)
         self.object_view.when_ready(self._default_scene)
         geometry = self.settings.value("geometry")
@@ -214,9 +179,32 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         for dock in self._docks.values():  # connected after the saved layout is restored
             dock.topLevelChanged.connect(lambda floating, d=dock: self._docked_again(d, floating))
         self._placed = False  # the first show puts the window and its floated panels on screen
-        self._object_settings_changed()
         self.set_workspace(self.workspace)
         self.load_model_folders()
+
+    def _follow_document(self) -> None:
+        """Every view subscribes to the shown document; the window's own parts (the initial
+        guess first, so the views find it, then the banner and the title) do too."""
+        d = self.document
+        for signal in (d.material_changed, d.fittings_changed, d.drawn_changed, d.saved):
+            signal.connect(self._document_changed)
+        d.switched.connect(self._forget_closed_document)
+        d.switched.connect(lambda _: self._document_changed())
+        self.editor.follow(d)
+        self.fitting.follow(d)
+        self.xml.follow(d)
+        self.plots.follow(d, lambda: self.lobe_view.viewer.settings.theta_i if self.lobe_view.ctx else 30.0)
+        self.lobe_feed = LobeViewFeed(d, self.lobe_view, self.lobe_controls, self.show_error, self)
+        self.lobe_feed.settings_changed.connect(self.plots.refresh_soon)
+        self.object_feed = ObjectViewFeed(d, self.object_view, self.object_controls, self.set_warning,
+                                          self.show_error, self)
+
+    def _document_changed(self) -> None:
+        ws = self.workspace
+        if ws.analytic is None and ws.guess is None and ws.source is not None:
+            self._new_guess()
+        self._check_bounds()
+        self._update_title()
 
     @property
     def workspace(self) -> Workspace:
@@ -362,9 +350,6 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         e.lobe_moved.connect(lambda k, d: self._edit(ws_ops.with_lobe_moved(self.workspace.editable(), k, d), "Move lobe"))
         e.combination_changed.connect(lambda c: self._edit(ws_ops.with_combination(self.workspace.editable(), c), f"{c} combination"))
         e.channels_changed.connect(lambda n: self._edit(ws_ops.with_channels(self.workspace.editable(), n), "Channels"))
-        self.lobe_controls.changed.connect(self._lobe_settings_changed)
-        self.lobe_view.incident_changed.connect(self._drag_incident)
-        self.object_controls.changed.connect(self._object_settings_changed)
         self.object_controls.open_mesh.connect(self.open_mesh_dialog)
         self.object_controls.open_environment.connect(self.open_environment_dialog)
         self.object_controls.env_layout.textActivated.connect(lambda _: self._reopen_environment())
@@ -375,11 +360,11 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self.object_view.table_shown.connect(self.object_controls.sh_table_note.setText)
         self.object_view.busy.connect(lambda text: self.statusBar().showMessage(text, 0 if text else 1))
         f = self.fitting
+        f.fits_energy_known.connect(self._fits_energy_known)
         f.fit_requested.connect(self.start_fit)
         f.auto_requested.connect(self.start_auto)
         f.ladder_requested.connect(self.show_ladder)
         f.stop_requested.connect(self.stop_fit)
-        f.fit_selected.connect(self._select_fit)
         f.refit_requested.connect(self._refit)
         f.promote_requested.connect(self._promote)
         f.lobes.currentTextChanged.connect(lambda _: self._guess_lobes_changed())
@@ -391,7 +376,7 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
             self.object_view.renderer.set_environment(load_environment(data_dir("resources") / DEFAULT_ENV))
         except BRDFLabError as e:
             self.show_error(str(e))
-        self._push_object_source()
+        self.object_feed.draw()
 
     # --- workspace ------------------------------------------------------------------------------
     def _binning_note(self) -> None:
@@ -401,27 +386,6 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self.set_warning("bins", None if step < RING_STEP else
                          f"{source.name}: the rings around its highlight are MERL's θh bins in the data (up to "
                          f"{step:.1f}× from one bin to the next), not the renderer")
-
-    def material_changed(self) -> None:
-        ws = self.workspace
-        if ws.analytic is None and ws.guess is None and ws.source is not None:
-            self._new_guess()
-        self.editor.show_material(ws.editable())
-        self.editor.setToolTip("" if ws.analytic is not None else
-                               "Measured material: you are editing the initial guess of the next fit")
-        self._push_lobe_sources()
-        self._push_object_source()
-        self._refresh_text()
-        self._check_bounds()
-
-    def fittings_changed(self) -> None:
-        ws = self.workspace
-        self.fitting.show_fits(ws.document.fittings, ws.shown_fit)
-        self._fits_energy_job.request([f.material for f in ws.document.fittings])
-        self._check_bounds()
-        self._push_lobe_sources()
-        self._push_object_source()
-        self._refresh_text()
 
     # --- what is wrong, where the user looks ----------------------------------------------------
     def set_warning(self, topic: str, text: str | None) -> None:
@@ -437,10 +401,6 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self.set_warning("energy", f"{whose}: {words}" if words else None)
 
     def _fits_energy_known(self, summaries: list) -> None:
-        fittings = self.workspace.document.fittings
-        if len(summaries) != len(fittings):
-            return  # an answer about fits that have changed since: a newer request is on its way
-        self.fitting.show_fits(fittings, self.workspace.shown_fit, summaries)
         bad = [(k, max(s[1])) for k, s in enumerate(summaries) if s is not None and not s[0]]
         if not bad:
             self.set_warning("fits", None)
@@ -467,30 +427,6 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
 
     def _map_note(self, env) -> None:
         self.set_warning("map", f"Environment {env.name}: {env.note}" if getattr(env, "note", "") else None)
-
-    def _refresh_text(self) -> None:
-        self._update_title()
-        self._xml_timer.start()  # coalesced: rapid edits rewrite the XML text once
-        self._plot_timer.start()
-
-    def _refresh_xml(self) -> None:
-        """The XML text, only while someone can see it (it costs a serialisation)."""
-        self._xml_stale = not (self._docks["XML"].isVisible() or self.xml.toPlainText() == "")
-        if not self._xml_stale:
-            self.xml.setPlainText(to_text(self.workspace.document))
-
-    @Slot(bool)
-    def _xml_dock_shown(self, shown: bool) -> None:
-        if shown and self._xml_stale:
-            self._refresh_xml()
-
-    def _refresh_plots(self) -> None:
-        try:
-            self.plots.show_sources(self.workspace.original(), self._candidate or self.workspace.fitted(),
-                                    self.lobe_view.viewer.settings.theta_i if self.lobe_view.ctx else 30.0,
-                                    self._fit_history)
-        except BRDFLabError as e:
-            self.show_error(str(e))
 
     @Slot(bool)
     def _clean_changed(self, clean: bool) -> None:
@@ -522,212 +458,14 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
             return
         lobes = [x.strip() for x in self.fitting.lobes.currentText().split(",") if x.strip()]
         try:
-            ws.guess = material_from_lobes(lobes, self.fitting.strategy.currentText(), ws.source.n_channels)
+            self.document.replace_guess(material_from_lobes(lobes, self.fitting.strategy.currentText(),
+                                                            ws.source.n_channels))
         except BRDFLabError as e:
             self.show_error(str(e))
 
     def _guess_lobes_changed(self) -> None:
         if self.workspace.analytic is None:
             self._new_guess()
-            self.editor.show_material(self.workspace.editable())
-            self._push_lobe_sources()
-
-    def _shown_fit_or_guess(self):
-        ws = self.workspace
-        if self._candidate is not None:
-            return self._candidate
-        if ws.analytic is None and (ws.shown_fit is None or self.fitting.fits.currentRow() < 0):
-            return ws.guess  # the initial guess, drawn over the measured original
-        return ws.fitted()
-
-    def _lobe_labels(self, original, fitted) -> list[str]:
-        """What the lobe viewer's legend calls the original and the material drawn over it:
-        the stored fit by its number in the Fitting panel's list, a running fit, or the next
-        fit's initial guess."""
-        ws = self.workspace
-        name = getattr(original, "name", "")
-        first = f"original: {name}" if name else "original"
-        if fitted is None:
-            return [first, ""]
-        lobes = "+".join(fitted.lobe_models())  # as the list names a fit
-        if fitted is self._candidate:
-            return [first, f"fit running: {lobes}"]
-        if fitted is ws.guess and ws.analytic is None:
-            return [first, f"initial guess: {lobes}"]
-        return [first, f"fit {ws.shown_fit}: {lobes}"]
-
-    def _push_lobe_sources(self) -> None:
-        original, fitted = self.workspace.original(), self._shown_fit_or_guess()
-        labels = self._lobe_labels(original, fitted)
-
-        def apply():
-            v = self.lobe_view.viewer
-            v.labels = labels
-            if original is not None and isinstance(original, ws_ops.AnalyticMaterial):
-                v.update_material(0, original)
-            else:
-                v.set_original(original)
-            if fitted is not None:
-                v.update_material(1, fitted)
-            else:
-                v.set_fitted(None)
-
-        self.lobe_view.when_ready(apply)
-        self._request_auto_level()
-        self._request_refined_surface()
-
-    def _push_object_source(self) -> None:
-        shown = self.workspace.original()
-        choice = self.object_controls.shown.currentText()
-        fit = self._candidate or self.workspace.fitted()
-        if choice == "fitted":
-            shown = fit or shown
-        self.object_view.compare = SHOWN[choice] if fit is not None and shown is not None else "off"
-        self.object_view.compare_source = fit
-        if self.object_view.ctx is None:
-            return
-        self.object_view.blank = shown is None or (isinstance(shown, ws_ops.AnalyticMaterial) and not shown.lobes)
-        if self.object_view.blank:  # an empty material is valid: nothing to shade
-            self.object_view.update()
-            self._request_auto_lighting()
-            return
-
-        def apply():
-            try:
-                self.object_view.renderer.set_source(shown)
-            except BRDFLabError as e:
-                self.show_error(str(e))
-
-        self.object_view.when_ready(apply)
-        self.object_view.restart()
-        self._request_auto_lighting()
-
-    def _lobe_settings_changed(self) -> None:
-        self.lobe_controls.apply(self.lobe_view.viewer.settings)
-        self.lobe_view.update()
-        self._plot_timer.start()
-        self._request_auto_level()
-        self._request_refined_surface()
-
-    def _request_refined_surface(self) -> None:
-        """The lobe viewer's surface refined near the analytic lobes' peaks, in a worker process
-        (the newest request wins); the uniform hemisphere is drawn meanwhile."""
-        def ask() -> None:
-            viewer = self.lobe_view.viewer
-            key, sources = viewer.surface_key(), viewer.analytic_sources()
-            if sources and (self._refine_for is None or key != self._refine_for[0]):
-                self._refine_for = (key, sources)  # held: the ids in the key stay theirs
-                self._refine_job.request((key, sources, viewer.settings.shape, viewer.settings.level))
-
-        self.lobe_view.when_ready(ask)
-
-    def _refined_known(self, result: tuple) -> None:
-        self.lobe_view.when_ready(lambda: self.lobe_view.viewer.set_refined(*result))
-
-    def _request_auto_level(self) -> None:
-        """Auto subdivision: recompute the level when what is drawn changes (not when the
-        level itself does), in a worker process; the newest request wins."""
-        if not self.lobe_controls.auto_level.isChecked():
-            self._auto_level_for = None
-            return
-        sources = (self.workspace.original(), self._shown_fit_or_guess())
-        shape = self.lobe_view.viewer.settings.shape
-        key = (tuple(id(s) for s in sources), shape)
-        if key != self._auto_level_for:
-            self._auto_level_for = key
-            self.lobe_controls.auto_level_note.setText("checking…")
-            self._auto_level_job.request((sources, shape, AUTO_LEVEL_TOLERANCE))
-
-    def _auto_level_known(self, result: tuple[int, float]) -> None:
-        level, error = result
-        if self.lobe_controls.auto_level.isChecked():
-            self.lobe_controls.auto_level_note.setText(f"level {level}: {error:.1%} of the peak")
-            self.lobe_controls.level.setValue(level)
-
-    def _drag_incident(self, theta: float, phi: float) -> None:
-        self.lobe_controls.theta.set_value(theta)
-        self.lobe_controls.phi.set_value(phi)
-        self._lobe_settings_changed()
-
-    def _object_settings_changed(self) -> None:
-        self._apply_object_settings()
-        self._push_object_source()
-
-    def _apply_object_settings(self) -> None:
-        """The controls into the object view's settings; with auto, the mode is the choice's
-        (until the first choice arrives, the view keeps the mode it had)."""
-        c, v = self.object_controls, self.object_view
-        s = v.settings
-        if not c.auto:
-            s.mode = c.mode.currentText()
-        elif self._auto_choice is not None:
-            s.mode = self._auto_choice.mode
-        s.samples = c.samples.value()
-        s.env_rotation = c.rotation.spin.value()
-        s.light = c.light()
-        v.exposure = c.exposure.spin.value()
-        v.gamma = c.gamma.value()
-        order, shadows, variant = c.sh_order.value(), c.sh_shadows.isChecked(), c.sh_variant.currentText()
-        table = sh_table_request(c.sh_table.currentText())
-
-        def apply_sh():
-            v.renderer.set_sh_order(order)
-            v.renderer.set_sh_table(table)
-            v.renderer.sh_shadows = shadows
-            v.renderer.sh_variant = variant
-
-        v.when_ready(apply_sh)
-        v.reinhard = c.reinhard.isChecked()
-
-    def _request_auto_lighting(self) -> None:
-        """Auto lighting: choose again (in a worker process; the newest request wins) when the
-        drawn source, the map or the tolerance changed — not when the choice itself did."""
-        c, v = self.object_controls, self.object_view
-        if not c.auto:
-            self._auto_lighting_for = self._auto_choice = None
-            self.set_warning("auto", None)
-            return
-        r = getattr(v, "renderer", None)  # none before OpenGL starts: the default scene asks again
-        unable = None
-        if r is None or v.blank or r.source is None:
-            unable = ("auto: nothing to light", PENDING_STYLE)
-        elif r.environment is None:
-            unable = ("auto: no environment map to light with", WARNING_STYLE)
-        if unable is not None:
-            self._auto_lighting_for = None
-            self.set_warning("auto", None)
-            c.show_auto_note(unable[0], style=unable[1])
-            return
-        key = (r.source, r.environment, c.tolerance.value())
-        old = self._auto_lighting_for
-        if old is not None and old[0] is key[0] and old[1] is key[1] and old[2] == key[2]:
-            return
-        self._auto_lighting_for = key
-        self._auto_lighting_token += 1
-        c.show_auto_note("auto: choosing the lighting for this material and map… (the view keeps its last "
-                         "setting meanwhile)", style=PENDING_STYLE)
-        # the renderer's own proxy lobes for a measured source, as the command line passes them
-        self._auto_lighting_job.request((self._auto_lighting_token, r.source, r.environment, key[2] / 100, r.material))
-
-    def _auto_lighting_known(self, result: tuple) -> None:
-        token, choice = result
-        c, v = self.object_controls, self.object_view
-        if token != self._auto_lighting_token or not c.auto:
-            return
-        self._auto_choice = choice
-        c.show_auto_choice(choice)
-        self.set_warning("auto", None if choice.within else
-                         f"Auto lighting: nothing is predicted within {100 * choice.tolerance:g} %; drawing the best "
-                         f"predicted, {chosen(choice).label} ({100 * choice.predicted_error:.1f} %)")
-        before = self._lighting_drawn()
-        self._apply_object_settings()
-        if self._lighting_drawn() != before:  # the same setting keeps its accumulated samples
-            v.restart()
-
-    def _lighting_drawn(self) -> tuple:
-        """The object view's lighting: mode, samples and (SH) the renderer's order."""
-        s, r = self.object_view.settings, self.object_view.renderer
-        return s.mode, s.samples, r.sh_order if s.mode == "sh" else None
 
     def closeEvent(self, event) -> None:
         if not self.maybe_save():
@@ -740,10 +478,9 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         self.plots.shutdown()
         self.charts.shutdown()
         QApplication.instance().removeEventFilter(self._field_guard)
-        self._fits_energy_job.shutdown()
-        self._auto_level_job.shutdown()
-        self._refine_job.shutdown()
-        self._auto_lighting_job.shutdown()
+        self.fitting.shutdown()
+        self.lobe_feed.shutdown()
+        self.object_feed.shutdown()
         self.object_view.shutdown()
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState(LAYOUT_VERSION))

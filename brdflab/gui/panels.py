@@ -6,7 +6,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from PySide6.QtCore import QSignalBlocker, Qt, Signal
+from collections.abc import Callable
+
+from PySide6.QtCore import QSignalBlocker, Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QFont, QSyntaxHighlighter, QTextCharFormat
 from PySide6.QtWidgets import (
     QCheckBox,
@@ -35,6 +37,7 @@ from brdflab.gui.auto_lighting import details, summary
 from brdflab.gui.background import LatestOnly
 from brdflab.gui.fields import typing
 from brdflab.gui.probe_open import LAYOUT_TIP
+from brdflab.io.xmlio import to_text
 from brdflab.lighting.probes import LAYOUTS
 from brdflab.lighting.auto import DEFAULT_TOLERANCE as LIGHTING_TOLERANCE
 from brdflab.material.albedo import energy_check
@@ -216,6 +219,19 @@ class MaterialEditor(QWidget):
     def current(self) -> int | None:
         item = self.tree.currentItem()
         return None if item is None else item.data(0, Qt.UserRole)
+
+    def follow(self, document) -> None:
+        """Subscribe to the shown document (gui.document.ShownDocument): the material, or for
+        measured data the next fit's initial guess, is what this panel edits."""
+        self._followed = document
+        document.material_changed.connect(self._show_followed)
+        document.switched.connect(self._show_followed)
+
+    def _show_followed(self, *_) -> None:  # a method: Qt disconnects it when this panel goes
+        ws = self._followed.workspace
+        self.show_material(ws.editable())
+        self.setToolTip("" if ws.analytic is not None else
+                        "Measured material: you are editing the initial guess of the next fit")
 
     def show_material(self, material: AnalyticMaterial | None) -> None:
         """Show `material`. When only values changed (same lobes, channels, combination), the
@@ -642,6 +658,7 @@ class FittingPanel(QWidget):
     fit_selected = Signal(int)
     refit_requested = Signal(int)
     promote_requested = Signal(int)
+    fits_energy_known = Signal(list)  # one energy summary per stored fit, checked
 
     def __init__(self) -> None:
         super().__init__()
@@ -747,6 +764,33 @@ class FittingPanel(QWidget):
     def _request_auto(self) -> None:
         self.auto_requested.emit(self.auto_settings())
 
+    def follow(self, document) -> None:
+        """Subscribe to the shown document (gui.document.ShownDocument): its stored fits, marked
+        (once a worker process has checked them) where they do not conserve energy; a fit
+        chosen in the list is the one the document draws."""
+        self._followed = document
+        self._energy_job = LatestOnly(energy_summaries, self)
+        self._energy_job.done.connect(self._energy_known)
+        document.fittings_changed.connect(self._show_followed)
+        document.switched.connect(self._show_followed)
+        self.fit_selected.connect(document.select_fit)
+
+    def _show_followed(self, *_) -> None:
+        fittings = self._followed.workspace.document.fittings
+        self.show_fits(fittings, self._followed.workspace.shown_fit)
+        self._energy_for = fittings
+        self._energy_job.request([f.material for f in fittings])
+
+    def _energy_known(self, summaries: list) -> None:
+        ws = self._followed.workspace
+        if self._energy_for is not ws.document.fittings or len(summaries) != len(self._energy_for):
+            return  # about fits that have changed since: a newer request is on its way
+        self.show_fits(self._energy_for, ws.shown_fit, summaries)
+        self.fits_energy_known.emit(summaries)
+
+    def shutdown(self) -> None:
+        self._energy_job.shutdown()
+
     def show_fits(self, fittings, shown: int | None, energy: list | None = None) -> None:
         """The stored fits; `energy` (one summary per fit, when known) marks those that do not
         conserve energy."""
@@ -816,9 +860,28 @@ class PlotsPanel(QWidget):
         self._last: tuple | None = None
         self._document = 0  # numbers the documents shown: plots of an earlier one are dropped
 
-    def follow(self, document) -> None:
-        """Subscribe to the shown document (gui.document.ShownDocument): another one shown, these plots go."""
-        document.switched.connect(lambda workspace: self.new_document(workspace.title.rstrip(" *")))
+    def follow(self, document, theta_i: Callable[[], float]) -> None:
+        """Subscribe to the shown document (gui.document.ShownDocument): another one shown, these
+        plots go; any change, they are drawn again (coalesced) at the lobe viewer's θi."""
+        self._followed, self._theta_i = document, theta_i
+        self._redraw = QTimer(self, singleShot=True, interval=250)
+        self._redraw.timeout.connect(self._draw_followed)
+        document.switched.connect(self._switched)
+        for signal in (document.material_changed, document.fittings_changed, document.drawn_changed):
+            signal.connect(self.refresh_soon)
+
+    def _switched(self, workspace) -> None:
+        self.new_document(workspace.title.rstrip(" *"))
+        self.refresh_soon()
+
+    def _draw_followed(self) -> None:
+        d = self._followed
+        self.show_sources(d.original(), d.fit_or_run(), self._theta_i(), d.history)
+
+    def refresh_soon(self, *_) -> None:
+        """Draw again in a moment, with what is shown then (a running fit's reports coalesce)."""
+        if not self._redraw.isActive():
+            self._redraw.start()
 
     def new_document(self, title: str) -> None:
         """Another document is shown: nothing of the last one stays drawn while its plots are
@@ -1047,7 +1110,33 @@ class XmlHighlighter(QSyntaxHighlighter):
 
 
 class XmlView(QPlainTextEdit):
+    """The shown document as its file would hold it, written again (coalesced) on every change
+    while it can be seen: a serialisation costs."""
+
     def __init__(self) -> None:
         super().__init__(readOnly=True)
         self.setFont(QFont("monospace"))
         self.highlighter = XmlHighlighter(self.document())
+        self._shown = None
+        self._stale = False
+        self._rewrite = QTimer(self, singleShot=True, interval=150)
+        self._rewrite.timeout.connect(self._write)
+
+    def follow(self, document) -> None:
+        """Subscribe to the shown document (gui.document.ShownDocument)."""
+        self._shown = document
+        for signal in (document.switched, document.material_changed, document.fittings_changed, document.saved):
+            signal.connect(self._rewrite_soon)
+
+    def _rewrite_soon(self, *_) -> None:
+        self._rewrite.start()
+
+    def _write(self) -> None:
+        self._stale = not (self.isVisible() or self.toPlainText() == "")
+        if not self._stale:
+            self.setPlainText(to_text(self._shown.workspace.document))
+
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        if self._stale:
+            self._write()
