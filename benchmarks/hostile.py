@@ -24,6 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
+from brdflab.errors import shown_path  # noqa: E402
 from test_hostile import CASES, HANG_LIMIT_S, TIME_LIMIT_S, _limits, build_corpus  # noqa: E402
 
 
@@ -61,7 +62,8 @@ def main() -> None:
         build_corpus(folder)
         rows = {}
         for name, case in CASES.items():
-            rows[name] = {"command": "brdflab " + " ".join(case.argv), "expected_status": case.status,
+            # a file name that is not UTF-8 is written as the lab prints it (\xNN)
+            rows[name] = {"command": "brdflab " + " ".join(map(shown_path, case.argv)), "expected_status": case.status,
                           **measure(folder, case.argv, case.hide_charset)}
             print(f"{name:32s} {rows[name]['status']:>3} {rows[name]['seconds']:6.2f} s "
                   f"{rows[name]['cpu_seconds']:6.2f} s CPU "
