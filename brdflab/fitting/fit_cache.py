@@ -13,35 +13,17 @@ to their end are kept (not a cancelled one, nor one cut by a time limit).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 import math
-from pathlib import Path
 
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.lm import STOPPED, FitOptions, FitResult, fit
 from brdflab.fitting.samples import SampleSet
-from brdflab.io.atomic import atomic_write
-from brdflab.io.user_cache import cache_folder
+from brdflab.io.user_cache import code_digest, entry_key, read_entry, write_entry
 from brdflab.material.analytic import AnalyticMaterial
 
 KIND = "fits"
 VERSION = 1  # of the entry's layout
 CODE = ("fitting", "models", "material", "geometry")  # the packages whose code decides a fit's result
-
-
-def _code_digest() -> str:
-    """SHA-256 of the source of every module a fit runs (the fitting, models, material and
-    geometry packages, file models' code included), as it is on disk: a few hundred kB."""
-    import brdflab
-
-    root = Path(brdflab.__file__).parent
-    h = hashlib.sha256()
-    for package in CODE:
-        for path in sorted((root / package).rglob("*.py")):
-            h.update(path.relative_to(root).as_posix().encode())
-            h.update(path.read_bytes())
-    return h.hexdigest()
 
 
 def fit_key(start: AnalyticMaterial, samples: SampleSet, options: FitOptions) -> str:
@@ -55,19 +37,17 @@ def fit_key(start: AnalyticMaterial, samples: SampleSet, options: FitOptions) ->
         "channels": start.n_channels,
         "options": {k: v for k, v in dataclasses.asdict(options).items() if k not in ("workers", "time_limit")},
         "samples": samples.digest(),
-        "code": _code_digest(),
+        "code": code_digest(*CODE),
     }
-    return hashlib.sha256(json.dumps(described, sort_keys=True, default=repr).encode()).hexdigest()
-
-
-def _entry_path(key: str) -> Path:
-    return cache_folder(KIND) / f"{key}.json"
+    return entry_key(described)
 
 
 def _read(start: AnalyticMaterial, options: FitOptions, key: str) -> FitResult | None:
     """The cached result for `key`, or None when there is none or it cannot be used."""
+    entry = read_entry(KIND, key)
+    if entry is None:
+        return None
     try:
-        entry = json.loads(_entry_path(key).read_text(encoding="utf-8"))
         material = start.copy()
         if len(entry["lobes"]) != len(material.lobes):
             return None
@@ -80,7 +60,7 @@ def _read(start: AnalyticMaterial, options: FitOptions, key: str) -> FitResult |
             return None
         return FitResult(material, error, options.metric, 0.0, int(entry["iterations"]), 0, str(entry["status"]),
                          str(entry["message"]), [], list(entry["warnings"]), zero, str(entry["scored_on"]))
-    except (OSError, ValueError, KeyError, TypeError, AttributeError, BRDFLabError):
+    except (ValueError, KeyError, TypeError, AttributeError, BRDFLabError):
         return None
 
 
@@ -89,12 +69,7 @@ def _write(key: str, result: FitResult) -> None:
              "error": result.error, "zero_error": result.zero_error, "iterations": result.iterations,
              "status": result.status, "message": result.message, "warnings": result.warnings,
              "scored_on": result.scored_on, "seconds": result.seconds}
-    path = _entry_path(key)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(path, json.dumps(entry).encode())
-    except (OSError, BRDFLabError):
-        pass  # an unwritable cache only costs time
+    write_entry(KIND, key, entry)
 
 
 def fit_once(start: AnalyticMaterial, samples: SampleSet, options: FitOptions | None = None,

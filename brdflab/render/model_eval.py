@@ -25,6 +25,7 @@ import moderngl
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.io.user_cache import code_digest, entry_key, read_entry, write_entry
 from brdflab.models.files import backend
 from brdflab.models.files.glsl_text import OVER
 from brdflab.models.files.limits import MAX_LOOP_STEPS
@@ -162,15 +163,46 @@ class GlslEvaluator:
         return self._thread.run(self._thread.evaluate, model, np.asarray(wi, float), np.asarray(wo, float), params)
 
     def check(self, model) -> None:
-        """Compile and probe-evaluate the model in a child process with a time limit; where it
-        is undefined goes to `model.undefined`."""
-        key = model.origin.sha256
+        """Compile and probe-evaluate the model in a child process with a time limit, once per
+        content: the child's verdict is kept in the user's cache (see `check_key`); where it is
+        undefined goes to `model.undefined`."""
+        key = check_key(model)
         if key not in self._checked:
-            self._checked[key] = probe_in_child(model)
+            self._checked[key] = _cached_verdict(key) or _probe_and_keep(model, key)
         found, undefined = self._checked[key]
         if found:
             raise BRDFLabError(found, model.origin.path)
         model.note_undefined(undefined)
+
+
+CHECKS = "model_checks"  # the user cache's folder of verdicts
+CHECK_CODE = ("models/files", "render/context.py", "render/glsl.py", "render/model_eval.py", "render/model_probe.py")
+
+
+def check_key(model) -> str:
+    """What decides a check's verdict: the file's content, the name the model takes (the GLSL
+    calls brdf_<name>), and the code that reads, translates and probes it. A 100-file model
+    folder cost each command 0.2–1.2 s per file, probing every file again (issue 35)."""
+    return entry_key({"file": model.origin.sha256, "name": model.name, "code": code_digest(*CHECK_CODE),
+                      "gl": moderngl.__version__})
+
+
+def _cached_verdict(key: str) -> tuple[str | None, str | None] | None:
+    entry = read_entry(CHECKS, key)
+    if entry is None or set(entry) != {"problem", "undefined"}:
+        return None
+    if not all(v is None or isinstance(v, str) for v in entry.values()):
+        return None
+    return entry["problem"], entry["undefined"]
+
+
+def _probe_and_keep(model, key: str) -> tuple[str | None, str | None]:
+    """The child's verdict, kept when it is the child's own answer (not a time limit reached,
+    which a loaded machine may cause, nor a child that could not answer)."""
+    problem, undefined, answered = probe_in_child(model)
+    if answered:
+        write_entry(CHECKS, key, {"problem": problem, "undefined": undefined})
+    return problem, undefined
 
 
 def probe_command(model) -> list[str]:
@@ -191,9 +223,10 @@ def _limit_cpu(pid: int) -> None:
         pass  # it has ended already
 
 
-def probe_in_child(model) -> tuple[str | None, str | None]:
+def probe_in_child(model) -> tuple[str | None, str | None, bool]:
     """The one-line problem of the model's GLSL (None if it compiles and evaluates probe pairs
-    within CHECK_CPU_SECONDS of CPU time in a child process), and where it is undefined."""
+    within CHECK_CPU_SECONDS of CPU time in a child process), where it is undefined, and
+    whether the child answered (False: a limit ended it, or it died)."""
     from brdflab.models.files.library import PROBE_PAIRS
 
     ran_out = (f"its GLSL did not finish evaluating {PROBE_PAIRS:,} direction pairs in {CHECK_CPU_SECONDS:g} s "
@@ -205,15 +238,15 @@ def probe_in_child(model) -> tuple[str | None, str | None]:
         except subprocess.TimeoutExpired:
             child.kill()
             child.communicate()
-            return ran_out, None
+            return ran_out, None, False
     if child.returncode in (-signal.SIGXCPU, -signal.SIGKILL):
-        return ran_out, None
+        return ran_out, None, False
     lines = [l for l in stdout.splitlines() if l.startswith("{")]
     if not lines:
         tail = (stderr.strip().splitlines() or ["no answer"])[-1]
-        return f"its GLSL could not be checked: {tail}", None
+        return f"its GLSL could not be checked: {tail}", None, False
     answer = json.loads(lines[-1])
-    return answer.get("problem"), answer.get("undefined")
+    return answer.get("problem"), answer.get("undefined"), True
 
 
 backend.install(GlslEvaluator())
