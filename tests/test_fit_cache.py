@@ -148,9 +148,37 @@ def test_a_second_export_in_any_format_does_not_fit_again(tmp_path):
     said = [w for w in json.loads(first.stdout.splitlines()[-1])["warnings"] if "fitted to Principled" in w]
     assert said and "on the way out" in said[0]
     error = said[0].split("Ngan error ")[1].split(",")[0]
+    weighed = sorted(cache_folder("export_losses").glob("*.json"))
+    assert weighed  # the losses every format says, weighed while the fit was made
     for fmt, name in (("mtlx", "w.mtlx"), ("gltf", "w.gltf")):
         again = brdflab("export", str(source), "--format", fmt, "--out", str(tmp_path / name), "--json", cwd=tmp_path)
         assert again.returncode == 0, again.stderr
         (line,) = [w for w in json.loads(again.stdout.splitlines()[-1])["warnings"] if "fitted to Principled" in w]
         assert "by an earlier export (read from the cache)" in line and f"Ngan error {error}," in line
     assert len(list(cache_folder("fits").glob("*.json"))) == 1
+    assert sorted(cache_folder("export_losses").glob("*.json")) == weighed  # read back, none weighed again
+
+
+def test_an_exports_losses_are_weighed_once(monkeypatch):
+    """What a format cannot carry is weighed over a grid of the principled material once per
+    parameters (issue 35 goal 4: a second export weighed them again, most of its time); a
+    damaged entry is weighed again."""
+    from brdflab.export import principled
+    from brdflab.fitting import metrics
+    from brdflab.models import get_model
+
+    params = {**get_model("Principled").defaults(), "subsurface": 0.4, "clearcoat": 0.3, "sheen": 0.6}
+    weighed = []
+    real = metrics.metric_errors
+    monkeypatch.setattr(metrics, "metric_errors", lambda *a: weighed.append(1) or real(*a))
+
+    def warnings():
+        export = principled.PrincipledExport(dict(params), exact=True)
+        return principled.approximation_warnings(export, "MaterialX", "no subsurface", "no coat", "no sheen")
+
+    first = warnings()
+    assert len(first) == 3 and len(weighed) == 3 and all("% of the material)" in w for w in first)
+    assert warnings() == first and len(weighed) == 3  # read back: no grid, no weighing
+    for entry in cache_folder(principled.LOSSES).glob("*.json"):
+        entry.write_text('{"loss": [1.0, "x"]}')
+    assert warnings() == first and len(weighed) == 6

@@ -134,6 +134,10 @@ def _export_principled(source, fmt: str, path: Path, origin: Path | None, env, c
     export = as_principled(source, fmt, cancel)
     if cancel is not None and cancel.is_set():
         raise BRDFLabError("export cancelled: nothing was written", path)
+    if export.fitted_now and fmt != "mtlx":
+        from brdflab.export.materialx import materialx_losses
+
+        materialx_losses(export)  # weighed (and cached) while the fit is made: a later export in any format reads them
     name = export_name(source, path, origin)
     if fmt == "mitsuba":
         from brdflab.export.mitsuba import export_mitsuba

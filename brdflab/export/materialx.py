@@ -107,7 +107,13 @@ def export_materialx(export: PrincipledExport, path, name: str) -> list[str]:
     options = mx.XmlWriteOptions()
     options.writeXIncludeEnable = False
     atomic_write(path, mx.writeToXmlString(doc, options).encode())
-    warnings = list(export.warnings) + approximation_warnings(
+    return list(export.warnings) + materialx_losses(export)
+
+
+def materialx_losses(export: PrincipledExport) -> list[str]:
+    """What MaterialX cannot carry of the material, each with its cost: every loss any format
+    weighs (glTF's are among them; Mitsuba's principled carries all)."""
+    warnings = approximation_warnings(
         export, "mtlx", "subsurface (principled's flatness) is not carried",
         "the clear coat is carried approximately (a GGX coat layer of weight clearcoat/4, roughness √α, instead of a "
         "GTR1 lobe)",

@@ -29,6 +29,7 @@ class PrincipledExport:
     error: float = 0.0  # Ngan RMSE of the principled material against the source
     relative_error: float = 0.0  # error / the source's own Ngan size
     warnings: list[str] = field(default_factory=list)
+    fitted_now: bool = False  # fitted on the way out by this export (not exact, not read from the cache)
     _grid: object = field(default=None, init=False, repr=False, compare=False)
 
     @property
@@ -96,18 +97,38 @@ def as_principled(source, fmt: str, cancel=None) -> PrincipledExport:
     warning = (f"{fmt}: the source ({what}) is not a principled material; it was {when}: "
                f"Ngan error {result.error:.4g}, {100 * relative:.1f} % of the source's own size (a black BRDF's error)")
     return PrincipledExport(dict(result.material.lobes[0].params), exact=False, error=result.error,
-                            relative_error=relative, warnings=[warning])
+                            relative_error=relative, warnings=[warning], fitted_now=not cached)
+
+
+LOSSES = "export_losses"  # the user cache's folder of weighed losses
+LOSS_CODE = ("export/principled.py", "fitting", "models", "material", "geometry")  # what decides a loss
 
 
 def dropped_error(export: PrincipledExport, neutral: dict[str, float]) -> tuple[float, float]:
     """What a format loses by writing `neutral` values for parameters it cannot carry: the
     Ngan error (and its relative size) of the principled material with those values against
-    the material with them, over the lab's analytic sample grid."""
+    the material with them, over the lab's analytic sample grid. Weighed once per parameters
+    and kept in the user's cache: a second export of a source (any format) weighed its losses
+    again, 4–9 s of a 10 s export whose fit came from the cache (issue 35, goal 4)."""
+    from brdflab.io.user_cache import code_digest, entry_key, read_entry, write_entry
+
+    key = entry_key({"params": sorted(export.params.items()), "neutral": sorted(neutral.items()),
+                     "code": code_digest(*LOSS_CODE)})
+    kept = read_entry(LOSSES, key)
+    if kept is not None and _finite_pair(kept.get("loss")):
+        return tuple(kept["loss"])
     from brdflab.fitting.metrics import metric_errors
 
     reduced = AnalyticMaterial("reduced", "Linear", 3, [Lobe(get_model("Principled"), {**export.params, **neutral}, [1.0] * 3)])
     error, zero = metric_errors([reduced, None], export.grid(), "Ngan")  # the grid's values are the full material's
-    return error, (error / zero if zero > 0 else 0.0)
+    loss = (error, error / zero if zero > 0 else 0.0)
+    write_entry(LOSSES, key, {"loss": list(loss)})
+    return loss
+
+
+def _finite_pair(value) -> bool:
+    return (isinstance(value, list) and len(value) == 2 and all(isinstance(v, float) for v in value)
+            and all(np.isfinite(value)))
 
 
 def loss_warnings(export: PrincipledExport, neutral: dict[str, float], what: str) -> list[str]:
