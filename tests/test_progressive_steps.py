@@ -32,14 +32,17 @@ def renderer():
 
 
 def stepped(renderer, mode: str, step: int, seed: int | None = None) -> tuple[np.ndarray, int]:
-    """The reference view accumulated `step` samples at a time, as the window does."""
-    image = Progressive(renderer, RenderSettings(mode=mode, width=SIZE, height=SIZE, samples=SAMPLES), seed=seed)
-    try:
-        while image.samples < SAMPLES:
-            image.step(step)
-        raw = np.frombuffer(image.texture.read(), np.float32).reshape(SIZE, SIZE, 4)[::-1]
-    finally:
-        image.release()
+    """The reference view accumulated `step` samples at a time, as the window does (in the
+    renderer's own context: a window test before this one leaves another context current,
+    where creating the image's texture failed)."""
+    with renderer.ctx:
+        image = Progressive(renderer, RenderSettings(mode=mode, width=SIZE, height=SIZE, samples=SAMPLES), seed=seed)
+        try:
+            while image.samples < SAMPLES:
+                image.step(step)
+            raw = np.frombuffer(image.texture.read(), np.float32).reshape(SIZE, SIZE, 4)[::-1]
+        finally:
+            image.release()
     return raw[:, :, :3] / image.samples, image.samples
 
 
