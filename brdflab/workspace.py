@@ -113,6 +113,15 @@ class Workspace:
 
     # --- what is shown --------------------------------------------------------------------------
     @property
+    def origin(self) -> Path | None:
+        """The file this document came from: its XML, or the bare measured file it opened
+        (an export never writes over it); None for a new document."""
+        if self.path is not None:
+            return self.path
+        material = self.document.material
+        return material.path if isinstance(material, MeasuredReference) else None
+
+    @property
     def title(self) -> str:
         """The file's name; before a measured file's material is saved, the data's name."""
         ref = self.document.material

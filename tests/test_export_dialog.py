@@ -3,10 +3,12 @@
 from pathlib import Path
 
 import numpy as np
+import pytest
 from PySide6.QtWidgets import QFileDialog, QWidget
 
 from brdflab.gui.export_dialog import export_dialog
 from brdflab.io.xmlio import load
+from test_gui import window  # noqa: F401  (the fixture)
 
 MATERIAL = Path(__file__).resolve().parents[1] / "materials" / "ward.xml"
 
@@ -76,3 +78,58 @@ def test_a_renderer_export_cancelled_writes_nothing(qtbot, tmp_path, monkeypatch
     with qtbot.waitSignal(job.failed, timeout=120_000):
         pass
     assert not (tmp_path / "ward.gltf").exists()
+
+
+def test_file_export_never_writes_over_the_document_or_what_it_reads(qtbot, tmp_path, monkeypatch):
+    """The window's File → Export passes the document's file: the file dialog's overwrite
+    question was all that stood between an export and the material's own XML, or the measured
+    table it reads (a user who answers yes lost them)."""
+    from PySide6.QtWidgets import QMessageBox
+
+    from brdflab.gui.export_dialog import ExportJob
+    from brdflab.sources.measured import tabulate, write_merl_binary
+    from brdflab.workspace import Workspace
+
+    table = tmp_path / "ward.binary"
+    write_merl_binary(tabulate(load(MATERIAL).material), table)
+    Workspace.open(table).save(tmp_path / "measured.xml")
+    saved_table, document = table.read_bytes(), (tmp_path / "measured.xml").read_bytes()
+    parent = QWidget()
+    qtbot.addWidget(parent)
+    said = []
+    monkeypatch.setattr(QMessageBox, "warning", lambda _p, _t, text: said.append(text))
+
+    def export(origin, target, chosen):
+        monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *a, **k: (str(target), chosen))
+        ws = Workspace.open(origin)
+        job = export_dialog(parent, ws.original(), origin=ws.origin)
+        if isinstance(job, ExportJob):
+            with qtbot.waitSignal(job.failed, timeout=120_000):
+                pass
+        elif job is not None:
+            pytest.fail(f"wrote {job}")
+        return said.pop()
+
+    merl, mitsuba = "MERL table (*.binary)", "Mitsuba 3 scene, principled BSDF (*.xml)"
+    assert "never replaces what its source reads" in export(tmp_path / "measured.xml", table, merl)
+    assert "never replaces its source" in export(tmp_path / "measured.xml", tmp_path / "measured.xml", mitsuba)
+    assert "never replaces its source" in export(table, table, merl)  # the bare table opened
+    assert table.read_bytes() == saved_table and (tmp_path / "measured.xml").read_bytes() == document
+
+
+def test_the_windows_export_passes_the_document(window, qtbot, tmp_path, monkeypatch):  # noqa: F811
+    from PySide6.QtWidgets import QMessageBox
+
+    from brdflab.sources.measured import tabulate, write_merl_binary
+    from test_gui import open_and_wait
+
+    table = tmp_path / "ward.binary"
+    write_merl_binary(tabulate(load(MATERIAL).material), table)
+    before = table.read_bytes()
+    open_and_wait(qtbot, window, window.open_path, table)
+    said = []
+    monkeypatch.setattr(QMessageBox, "warning", lambda _p, _t, text: said.append(text))
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *a, **k: (str(table), "MERL table (*.binary)"))
+    (action,) = [a for a in window.menuBar().actions()[0].menu().actions() if a.text() == "E&xport…"]
+    action.trigger()
+    assert said and "never replaces its source" in said[0] and table.read_bytes() == before

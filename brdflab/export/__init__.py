@@ -154,12 +154,13 @@ def _export_principled(source, fmt: str, path: Path, origin: Path | None, env, c
     return export_gltf(export, path, name)
 
 
-def run_export(source, fmt: str, path: str, env, messages, cancel) -> None:
-    """An export in a worker process (the window's File → Export): reports ("finished",
-    warnings) or ("failed", message) on `messages`, as the window's child jobs do."""
+def run_export(source, fmt: str, path: str, env, origin: Path | None, messages, cancel) -> None:
+    """An export in a worker process (the window's File → Export; `origin`: the document's
+    file): reports ("finished", warnings) or ("failed", message) on `messages`, as the
+    window's child jobs do."""
     messages.put(("started", 0))
     try:
-        messages.put(("finished", export_source(source, fmt, path, env=env, cancel=cancel)))
+        messages.put(("finished", export_source(source, fmt, path, origin=origin, env=env, cancel=cancel)))
     except BRDFLabError as e:
         messages.put(("failed", str(e)))
     except OSError as e:

@@ -31,8 +31,8 @@ class ExportJob(ChildJob):
 
     what = "export"
 
-    def __init__(self, parent: QWidget, source, fmt: str, path: Path, env) -> None:
-        super().__init__(run_export, (source, fmt, str(path), env), parent)
+    def __init__(self, parent: QWidget, source, fmt: str, path: Path, env, origin: Path | None = None) -> None:
+        super().__init__(run_export, (source, fmt, str(path), env, origin), parent)
         self.path = path
         self.dialog = QProgressDialog(f"Exporting to {path.name}…", "Cancel", 0, 0, parent)
         self.dialog.setWindowModality(Qt.WindowModality.WindowModal)
@@ -51,11 +51,14 @@ class ExportJob(ChildJob):
                                     + "\n".join(f"• {w}" for w in warnings))
 
 
-def export_dialog(parent: QWidget, source, folder: str = "", env=None) -> Path | ExportJob | None:
+def export_dialog(parent: QWidget, source, folder: str = "", env=None,
+                  origin: Path | None = None) -> Path | ExportJob | None:
     """Ask where and in which format to export `source` (a fit, else the material); write it.
 
     Returns the written path, the running job for the renderers' formats (`env`: the map of a
-    Mitsuba scene), or None when cancelled or refused (the reason is shown)."""
+    Mitsuba scene), or None when cancelled or refused (the reason is shown). `origin`, the
+    document's own file, is never written over, nor any file it reads (its measured data, its
+    model files), whatever the file dialog allowed."""
     if source is None:
         QMessageBox.information(parent, "Export", "Nothing to export: open or fit a material first.")
         return None
@@ -67,11 +70,11 @@ def export_dialog(parent: QWidget, source, folder: str = "", env=None) -> Path |
     if not path.suffix:
         path = path.with_suffix("." + SUFFIXES[fmt])
     if fmt in PRINCIPLED_FORMATS:
-        job = ExportJob(parent, source, fmt, path, env)
+        job = ExportJob(parent, source, fmt, path, env, origin)
         job.start()
         return job
     try:
-        export_source(source, fmt, path)
+        export_source(source, fmt, path, origin=origin)
     except (BRDFLabError, OSError) as e:
         QMessageBox.warning(parent, "Export", str(e))
         return None

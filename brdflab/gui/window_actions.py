@@ -53,7 +53,8 @@ class WindowActions:
             file.addAction(action)
         export = file.addAction("E&xport…")  # the shown fit, else the material (gui/export_dialog.py)
         export.triggered.connect(lambda: export_dialog(self, self.workspace.fitted() or self.workspace.original(),
-                                                       env=self.object_view.renderer.environment))
+                                                       env=self.object_view.renderer.environment,
+                                                       origin=self.workspace.origin))
         for text, view in (("Export lobe &image…", self.lobe_view), ("Export &object image…", self.object_view)):
             action = file.addAction(text)
             action.triggered.connect(lambda _=False, v=view: self.export_image_dialog(v))
