@@ -16,13 +16,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+from export_cache import timed  # a command as a user runs it, wall seconds (same folder)
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("BRDFLAB_SHARED", ROOT.parent / "shared")) / "data"
@@ -48,16 +46,6 @@ def material_naming(model_file: Path, out: Path) -> None:
                                                                          Lobe.create(model.name, [0.5] * 3)])), out)
 
 
-def timed(args: list[str], cwd: Path, env: dict) -> float:
-    t0 = time.perf_counter()
-    run = subprocess.run([sys.executable, "-m", "brdflab", *map(str, args)], cwd=cwd, env=env, capture_output=True,
-                         text=True)
-    seconds = time.perf_counter() - t0
-    if run.returncode != 0:
-        raise SystemExit(f"brdflab {' '.join(map(str, args))} failed: {run.stderr.strip()}")
-    return seconds
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--files", type=int, default=100)
@@ -78,7 +66,8 @@ def main() -> None:
         rows = {}
         for name, folder in (("one file", one), (f"{args.files} files", many)):
             env = {**os.environ, "BRDFLAB_CACHE": str(tmp / f"cache-{folder.name}")}
-            command = ["eval", material, "--models", folder, "--pairs", tmp / "pairs.npy", "--out", tmp / "v.npy"]
+            command = [str(a) for a in ("eval", material, "--models", folder, "--pairs", tmp / "pairs.npy", "--out",
+                                        tmp / "v.npy")]
             cold = timed(command, elsewhere, env)
             warm = min(timed(command, elsewhere, env) for _ in range(3))
             rows[name] = {"first_s": round(cold, 3), "seen_s": round(warm, 3)}
