@@ -158,3 +158,23 @@ def test_each_view_subscribes_to_the_document_itself(qtbot):
     assert layers() == [second.analytic, None] and document.running is None
     qtbot.waitUntil(lambda: object_view.renderer.source is second.analytic, timeout=5000)
     qtbot.waitUntil(lambda: plots._last[0] is second.analytic and plots._last[3] == [], timeout=5000)
+
+
+def test_a_new_initial_guess_redraws_only_what_shows_it(window, qtbot, tmp_path):  # noqa: F811
+    """Measured data: the Fitting panel's lobes make the next fit's initial guess, which the
+    editor and the lobe viewer show. The object view (the measurement), the plots and the XML
+    do not show it and keep their work: typing a lobe list restarted the object view's image
+    and asked for the plots again (14–45 s of a worker for a measured table) at every keystroke."""
+    from test_gui import open_and_wait
+    from test_gui_trust import _measured
+
+    open_and_wait(qtbot, window, window.open_path, _measured(tmp_path, "data", 0.3))
+    qtbot.waitUntil(lambda: window.object_view.samples_done >= 4, timeout=30000)
+    qtbot.waitUntil(lambda: not window.plots._redraw.isActive(), timeout=5000)
+    image, xml = window.object_view._progressive, window.xml._rewrite
+    window.fitting.lobes.setCurrentText("Lambertian,Ward")
+    guess = window.workspace.guess
+    assert guess.lobe_models() == ["Lambertian", "Ward"] and window.editor.material is guess
+    assert window.lobe_view.viewer._layers[1].source is guess
+    assert window.object_view._progressive is image and not window.plots._redraw.isActive()
+    assert not xml.isActive()

@@ -16,7 +16,8 @@ class ShownDocument(QObject):
     """The Workspace shown, the run fitting it, and their changes as signals."""
 
     switched = Signal(object)  # the Workspace now shown, another document than before
-    material_changed = Signal()  # its material (for measured data, the next fit's initial guess) was replaced
+    material_changed = Signal()  # its material was replaced
+    guess_changed = Signal()  # (measured data) the next fit's initial guess, what the editor edits, was replaced
     fittings_changed = Signal()  # its stored fits, or which one is shown, were replaced
     drawn_changed = Signal()  # what is drawn over the original changed: a fit chosen, a running fit's newest parameters
     saved = Signal()  # written to its file (its title and the paths its XML names may change)
@@ -39,13 +40,16 @@ class ShownDocument(QObject):
             self.fittings_changed.emit()
 
     def replace_material(self, material) -> None:
+        """Replace what the editor edits: the material, or for measured data the initial guess
+        (which only the editor and the lobe viewer show: the object view, plots and XML do
+        not redo their work for it)."""
         self.workspace.replace_material(material)
-        self.material_changed.emit()
+        (self.material_changed if self.workspace.analytic is not None else self.guess_changed).emit()
 
     def replace_guess(self, guess) -> None:
         """The next fit's initial guess (measured data): what the editor edits there."""
         self.workspace.guess = guess
-        self.material_changed.emit()
+        self.guess_changed.emit()
 
     def replace_fittings(self, fittings: list, shown: int | None) -> None:
         self.workspace.replace_fittings(fittings, shown)

@@ -32,7 +32,8 @@ class LobeViewFeed(QObject):
         self._refine_job = LatestOnly(refine_job, self)
         self._refine_job.done.connect(self._refined_known)
         self._refine_job.failed.connect(show_error)
-        for signal in (document.material_changed, document.fittings_changed, document.drawn_changed):
+        for signal in (document.material_changed, document.guess_changed, document.fittings_changed,
+                       document.drawn_changed):
             signal.connect(self.draw)
         document.switched.connect(self.draw)
         controls.changed.connect(self._settings_changed)

@@ -224,8 +224,8 @@ class MaterialEditor(QWidget):
         """Subscribe to the shown document (gui.document.ShownDocument): the material, or for
         measured data the next fit's initial guess, is what this panel edits."""
         self._followed = document
-        document.material_changed.connect(self._show_followed)
-        document.switched.connect(self._show_followed)
+        for signal in (document.material_changed, document.guess_changed, document.switched):
+            signal.connect(self._show_followed)
 
     def _show_followed(self, *_) -> None:  # a method: Qt disconnects it when this panel goes
         ws = self._followed.workspace
