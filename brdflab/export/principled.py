@@ -101,7 +101,6 @@ def as_principled(source, fmt: str, cancel=None) -> PrincipledExport:
 
 
 LOSSES = "export_losses"  # the user cache's folder of weighed losses
-LOSS_CODE = ("export/principled.py", "fitting", "models", "material", "geometry")  # what decides a loss
 
 
 def dropped_error(export: PrincipledExport, neutral: dict[str, float]) -> tuple[float, float]:
@@ -110,10 +109,12 @@ def dropped_error(export: PrincipledExport, neutral: dict[str, float]) -> tuple[
     the material with them, over the lab's analytic sample grid. Weighed once per parameters
     and kept in the user's cache: a second export of a source (any format) weighed its losses
     again, 4–9 s of a 10 s export whose fit came from the cache (issue 35, goal 4)."""
+    from brdflab.fitting.fit_cache import CODE
     from brdflab.io.user_cache import code_digest, entry_key, read_entry, write_entry
 
+    # what decides a loss: the code a fit runs (the metric, the model) and this module
     key = entry_key({"params": sorted(export.params.items()), "neutral": sorted(neutral.items()),
-                     "code": code_digest(*LOSS_CODE)})
+                     "code": code_digest(*CODE, "export/principled.py")})
     kept = read_entry(LOSSES, key)
     if kept is not None and _finite_pair(kept.get("loss")):
         return tuple(kept["loss"])
