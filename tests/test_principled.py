@@ -175,3 +175,25 @@ def test_a_fit_run_onto_the_specular_floor_ends_there_not_at_zero():
     wi, wo = upper_directions(rng, 2000), upper_directions(rng, 2000)
     theirs = mitsuba_values(mi, mitsuba_principled(mi, p), wi, wo)
     np.testing.assert_allclose(model.evaluate_rgb(wi, wo, p), theirs, rtol=1e-3, atol=1e-6)
+
+
+def test_a_fitting_pass_shares_terms_without_mixing_parameters(rng):
+    """Within `shared_half_vectors` (a fitting pass: one lobe evaluated once per perturbed
+    parameter at the same directions) Principled keeps the terms each parameter leaves as they
+    were; every evaluation must still equal the same one made alone, for every parameter
+    moved by a finite-difference step, in any order."""
+    from brdflab.geometry.vec import shared_half_vectors
+
+    model = get_model("Principled")
+    wi, wo = upper_directions(rng, 4000), upper_directions(rng, 4000)
+    rows = []
+    for p in settings(rng)[:8]:
+        rows.append(p)
+        step = lambda q: 1e-5 if p[q.name] + 1e-5 <= q.upper else -1e-5
+        rows += [{**p, q.name: p[q.name] + step(q)} for q in model.parameters]
+    order = rng.permutation(len(rows))
+    alone = [model.evaluate_rgb(wi, wo, rows[k]) for k in order]
+    with shared_half_vectors():
+        shared = [model.evaluate_rgb(wi, wo, rows[k]) for k in order]
+    for a, s in zip(alone, shared):
+        np.testing.assert_array_equal(s, a)

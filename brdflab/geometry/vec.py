@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import threading
 from contextlib import contextmanager
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 
 TINY = 1e-12
+MAX_SHARED_TERMS = 64  # a fitting pass shares a few dozen: more is someone else's loop, not kept
 
 
 def normalize(v: np.ndarray) -> np.ndarray:
@@ -26,15 +27,35 @@ _shared = threading.local()
 
 @contextmanager
 def shared_half_vectors() -> Iterator[None]:
-    """Within this block `half_vector` of the same two arrays (by identity) is computed once
-    and returned read-only: the lobes of a material, and each perturbed copy of a lobe in a
-    fitting pass, evaluate the same chunk of directions one after another."""
+    """Within this block `half_vector` (and each `shared_term`) of the same two arrays (by
+    identity) is computed once and returned read-only: the lobes of a material, and each
+    perturbed copy of a lobe in a fitting pass, evaluate the same chunk of directions one
+    after another."""
     outer = getattr(_shared, "on", False)
-    _shared.on, _shared.key, _shared.h = True, None, None
+    _shared.on, _shared.key, _shared.h, _shared.term_key, _shared.terms = True, None, None, None, {}
     try:
         yield
     finally:
-        _shared.on, _shared.key, _shared.h = outer, None, None
+        _shared.on, _shared.key, _shared.h, _shared.term_key, _shared.terms = outer, None, None, None, {}
+
+
+def shared_term(wi: np.ndarray, wo: np.ndarray, key: tuple, compute: Callable[[], np.ndarray]) -> np.ndarray:
+    """`compute()`, a term of a lobe at directions wi, wo that depends only on the parameters
+    named in `key`: within `shared_half_vectors` computed once per key for the same two arrays
+    (by identity) and returned read-only. A fitting pass evaluates a lobe once per perturbed
+    parameter; a perturbation of a colour leaves its distribution and masking as they were."""
+    if not getattr(_shared, "on", False):
+        return compute()
+    if _shared.term_key is None or _shared.term_key[0] is not wi or _shared.term_key[1] is not wo:
+        _shared.term_key, _shared.terms = (wi, wo), {}
+    terms = _shared.terms
+    if key not in terms and len(terms) >= MAX_SHARED_TERMS:
+        terms.clear()
+    if key not in terms:
+        value = compute()
+        value.flags.writeable = False
+        terms[key] = value
+    return terms[key]
 
 
 def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:

@@ -38,13 +38,14 @@ from brdflab.geometry.sampling import (
     half_vector_pdf,
     reflect,
 )
-from brdflab.geometry.vec import TINY, dot, half_vector
+from brdflab.geometry.vec import TINY, dot, half_vector, shared_term
 from brdflab.models.base import LUMINANCE, LobeModel, Parameter, anisotropic_split
 from brdflab.models.registry import register
 
 # Mitsuba's luminance of linear sRGB (mitsuba/core/spectrum.h), used for the tints
 TINT_LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 CHANNELS = ("r", "g", "b")
+SHAPE = ("roughness", "anisotropic", "specular", "clearcoat_gloss", "subsurface")  # what `_terms` depend on
 # Mitsuba's `specular` = 0 is η = 1, for which it drops its whole main lobe (the metal and the
 # tint too) while the lab's value runs on continuously: fits end at this at least, and the
 # exports write at least this (tests/test_principled.py measures both against Mitsuba)
@@ -208,53 +209,89 @@ class Principled(LobeModel):
         wo = np.asarray(wo, float)
         p = self._with_defaults(params)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
-            v = self._rgb(wi, wo, p)
-        above = (wi[..., 2] > 0.0) & (wo[..., 2] > 0.0)
-        v = np.where(above[..., None] & np.isfinite(v), v, 0.0)
-        return v
+            return self._rgb(wi, wo, p)
 
     def _rgb(self, wi, wo, p):
-        """f(wi, wo) in linear RGB, shape (..., 3): Mitsuba's principled `eval` / cos θo."""
+        """f(wi, wo) in linear RGB, shape (..., 3): Mitsuba's principled `eval` / cos θo,
+        written as six terms of the directions and the shape parameters (`_terms`) weighed
+        per channel by the colour parameters (`_weights`)."""
+        weights = self._weights(p)
+        if weights.ndim == 2:
+            shape = tuple(float(p[n]) for n in SHAPE) if all(np.ndim(p[n]) == 0 for n in SHAPE) else None
+            stacked = lambda: np.stack(self._terms(wi, wo, p), axis=-1)
+            terms = stacked() if shape is None else shared_term(wi, wo, ("principled terms", *shape), stacked)
+            return terms @ weights
+        return sum(t[..., None] * weights[..., k, :] for k, t in enumerate(self._terms(wi, wo, p)))
+
+    @staticmethod
+    def _terms(wi, wo, p) -> list[np.ndarray]:
+        """The six terms f is a per-channel weighted sum of: the main lobe D G / (4 cos θi cos θo)
+        times the dielectric Fresnel, times 1 and times the Schlick weight (1 − cos θd)⁵; the
+        clear coat; the diffuse / π; the Schlick weight alone (the sheen). Each depends on at
+        most three parameters and is shared by the evaluations of one fitting pass that keep
+        them (`vec.shared_term`): a pass perturbs twelve parameters, eight of them weights."""
+        ci, co = wi[..., 2], wo[..., 2]
+        h = half_vector(wi, wo)
+        cos_d = shared_term(wi, wo, ("principled cos θd",), lambda: dot(wi, h))
+        w_d = shared_term(wi, wo, ("principled schlick",), lambda: schlick_weight(cos_d))
+        above = shared_term(wi, wo, ("principled above",), lambda: (ci > 0.0) & (co > 0.0))
+        key = lambda *names: tuple(float(p[n]) for n in names) if all(np.ndim(p[n]) == 0 for n in names) else None
+
+        def term(name, names, compute):  # 0 below the horizon and where it is not finite
+            zeroed = lambda: (lambda v: np.where(above & np.isfinite(v), v, 0.0))(compute())
+            return zeroed() if key(*names) is None else shared_term(wi, wo, (name, *key(*names)), zeroed)
+
+        def main():
+            ax, ay = alphas(p["roughness"], p["anisotropic"])
+            return ggx_aniso_d(h, ax, ay) * ggx_aniso_g1(wi, ax, ay) * ggx_aniso_g1(wo, ax, ay) / (4.0 * ci * co)
+
+        shape = ("roughness", "anisotropic")
+        spec = term("principled main", shape, main)
+        dielectric = term("principled dielectric", ("specular", *shape),
+                          lambda: dielectric_fresnel(cos_d, specular_eta(p["specular"])) * spec)
+        tinted = term("principled schlick main", shape, lambda: w_d * spec)
+
+        def coat():
+            g_cc = shared_term(wi, wo, ("principled coat G",),
+                               lambda: ggx_aniso_g1(wi, 0.25, 0.25) * ggx_aniso_g1(wo, 0.25, 0.25))
+            return (0.04 + 0.96 * w_d) * gtr1_d(h, clearcoat_alpha(p["clearcoat_gloss"])) * g_cc
+
+        def diffuse():  # with retro-reflection, flattened by `subsurface`
+            fo = shared_term(wi, wo, ("principled schlick o",), lambda: schlick_weight(co))
+            fi = shared_term(wi, wo, ("principled schlick i",), lambda: schlick_weight(ci))
+            rr = 2.0 * np.asarray(p["roughness"], float) * cos_d * cos_d
+            lambert = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo)
+            retro = rr * (fo + fi + fo * fi * (rr - 1.0))
+            fss90 = 0.5 * rr
+            fss = (1.0 + (fss90 - 1.0) * fo) * (1.0 + (fss90 - 1.0) * fi)
+            flat = 1.25 * (fss * (1.0 / (ci + co) - 0.5) + 0.5)
+            s = np.asarray(p["subsurface"], float)
+            return INV_PI * ((1.0 - s) * (lambert + retro) + s * flat)
+
+        return [dielectric, spec, tinted, term("principled coat", ("clearcoat_gloss",), coat),
+                term("principled diffuse", ("roughness", "subsurface"), diffuse), term("principled sheen", (), lambda: w_d)]
+
+    @staticmethod
+    def _weights(p) -> np.ndarray:
+        """Each term's weight per channel, shape (..., 6, 3) in `_terms`' order: the Fresnel
+        (1 − m)(1 − t) F_dielectric + m F_metal + (1 − m) t F_tint with F_x = F0_x + (1 − F0_x) w
+        split into what multiplies F_dielectric, 1 and w; the clear coat's 0.25 · clearcoat;
+        the diffuse's (1 − m) · base; the sheen's sheen (1 − m) · its colour."""
         colour = base_color(p)
         col = lambda name: np.asarray(p[name], float)[..., None]
         metallic, st = col("metallic"), col("specular_tint")
-        ci, co = wi[..., 2], wo[..., 2]
-        h = half_vector(wi, wo)
-        cos_d = dot(wi, h)
-        w_d = schlick_weight(cos_d)
-        # main specular lobe
-        ax, ay = alphas(p["roughness"], p["anisotropic"])
-        d = ggx_aniso_d(h, ax, ay)
-        g = ggx_aniso_g1(wi, ax, ay) * ggx_aniso_g1(wo, ax, ay)
         eta = specular_eta(p["specular"])
-        r0 = ((eta - 1.0) / (eta + 1.0)) ** 2
-        f_dielectric = dielectric_fresnel(cos_d, eta)[..., None]
-        w = w_d[..., None]
-        f_metal = colour + (1.0 - colour) * w
-        tinted = tint(colour) * np.asarray(r0, float)[..., None]
-        f_tint = tinted + (1.0 - tinted) * w
-        fresnel = (1.0 - metallic) * (1.0 - st) * f_dielectric + metallic * f_metal + (1.0 - metallic) * st * f_tint
-        value = fresnel * (d * g / (4.0 * ci * co))[..., None]
-        # clear coat (GTR1, F0 = 0.04, Smith GGX α = 0.25)
-        coat = np.asarray(p["clearcoat"], float)
-        a_cc = clearcoat_alpha(p["clearcoat_gloss"])
-        g_cc = ggx_aniso_g1(wi, 0.25, 0.25) * ggx_aniso_g1(wo, 0.25, 0.25)
-        value = value + (0.25 * coat * (0.04 + 0.96 * w_d) * gtr1_d(h, a_cc) * g_cc)[..., None]
-        # diffuse with retro-reflection, flattened by `subsurface`
-        fo, fi = schlick_weight(co), schlick_weight(ci)
-        rr = 2.0 * np.asarray(p["roughness"], float) * cos_d * cos_d
-        lambert = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo)
-        retro = rr * (fo + fi + fo * fi * (rr - 1.0))
-        fss90 = 0.5 * rr
-        fss = (1.0 + (fss90 - 1.0) * fo) * (1.0 + (fss90 - 1.0) * fi)
-        flat = 1.25 * (fss * (1.0 / (ci + co) - 0.5) + 0.5)
-        s = np.asarray(p["subsurface"], float)
-        diffuse = (1.0 - s) * (lambert + retro) + s * flat
-        value = value + (1.0 - metallic) * colour * (INV_PI * diffuse)[..., None]
-        # sheen
+        r0 = np.asarray(((eta - 1.0) / (eta + 1.0)) ** 2, float)[..., None]
+        tinted = tint(colour) * r0
         sheen_colour = 1.0 + col("sheen_tint") * (tint(colour) - 1.0)
-        value = value + col("sheen") * (1.0 - metallic) * sheen_colour * w
-        return value
+        ones = np.ones_like(colour)
+        weights = [(1.0 - metallic) * (1.0 - st) * ones,
+                   metallic * colour + (1.0 - metallic) * st * tinted,
+                   metallic * (1.0 - colour) + (1.0 - metallic) * st * (1.0 - tinted),
+                   0.25 * col("clearcoat") * ones,
+                   (1.0 - metallic) * colour,
+                   col("sheen") * (1.0 - metallic) * sheen_colour]
+        return np.stack(np.broadcast_arrays(*weights), axis=-2)
 
     def _sample(self, wo, u, p):
         pd, pc, ps = lobe_probabilities(p)
