@@ -268,6 +268,32 @@ def test_the_polish_goes_on_from_what_the_coarse_stage_found():
     assert result.error <= 1.001 * lambertian.error  # the lobe adds nothing on this paint, but costs nothing
 
 
+def test_a_large_set_is_fitted_coarse_then_medium_then_on_every_sample(linear_table):
+    """Coarse to fine: the starts on a small subset, the best on one MEDIUM times larger (where a
+    crawl along a flat valley costs a fraction of a full pass), and the last iterations on every
+    sample; the result is what the full set says (the truth, which it holds exactly)."""
+    from brdflab.fitting import lm
+
+    truth = truth_linear()
+    samples = TableSampleSet(linear_table)
+    sizes = []
+    accumulate = lm._Problem.accumulate
+
+    def counted(problem, rows):
+        if not sizes or sizes[-1] != problem.samples.size:
+            sizes.append(problem.samples.size)
+        return accumulate(problem, rows)
+
+    lm._Problem.accumulate = counted
+    try:
+        result = fit(perturbed(truth), samples, FitOptions(metric="L2", restarts=False, coarse_size=30_000))
+    finally:
+        lm._Problem.accumulate = accumulate
+    assert sizes == [30_000, lm.MEDIUM * 30_000, samples.size]
+    assert result.status == "converged"
+    assert relative_error(result.material.lobes[1].params["m"], truth.lobes[1].params["m"]) < 1e-3
+
+
 def test_fixed_magnitudes_end_within_the_material_cap():
     """Fixed magnitudes are searched unbounded; a source that asks for more than a material
     may hold (MAX_SCALE) gets the cap, and the result passes the material's checks."""
