@@ -32,7 +32,8 @@ import numpy as np
 from brdflab.io.atomic import atomic_write
 from brdflab.io.resources import shared_data_dir
 from brdflab.lighting.envmap import load_environment
-from brdflab.lighting.auto import DEFAULT_TOLERANCE, choose_lighting
+from brdflab.lighting.auto import DEFAULT_TOLERANCE, choose_lighting, predict_all
+from brdflab.lighting.auto_pilot import make_pilot
 from brdflab.lighting.reference_view import relative_rmse, sphere_view
 from brdflab.render.context import create_context
 from brdflab.render.object_view import ObjectRenderer, RenderSettings
@@ -81,11 +82,12 @@ def run(tolerance: float, quick: bool, json_path: Path) -> dict:
     for material, make in classes.items():
         source = make()
         proxy = proxy_lobes(source)
-        choices = {}
+        choices, every = {}, {}
         for name, small in maps.items():
             t0 = time.perf_counter()
             choices[name] = (choose_lighting(source, small, tolerance, proxy), time.perf_counter() - t0)
-        candidates = next(iter(choices.values()))[0].candidates  # the same settings for every map
+            every[name] = predict_all(source, proxy, small, make_pilot(source, small))  # the choice stops at its pick
+        candidates = next(iter(every.values()))  # the same settings for every map
         references = {name: quadrature_reference(source, small, SIZE) for name, small in maps.items()}
         ms, errors = measure_material(renderer, source, maps, candidates, references)
         for name, small in maps.items():
@@ -99,7 +101,7 @@ def run(tolerance: float, quick: bool, json_path: Path) -> dict:
                    "cheapest_ms": meeting[0][0] if meeting else None,
                    "floor": references[name][1], "reference": references[name][2],
                    "sweep": [{"label": c.label, "ms": ms[c.label], "predicted": c.predicted_error,
-                              "measured": errors[(name, c.label)]} for c in choice.candidates],
+                              "measured": errors[(name, c.label)]} for c in every[name]],
                    "reasons": choice.reasons}
             row["cost_ratio"] = row["choice_ms"] / row["cheapest_ms"] if meeting else None
             row["judged"] = row["floor"] <= tolerance / 2

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from brdflab.cli import main
-from brdflab.lighting.auto import choose_lighting
+from brdflab.lighting.auto import choose_lighting, predict_all
+from brdflab.lighting.auto_pilot import make_pilot
 from brdflab.lighting.envmap import load_environment
 from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
 from brdflab.io import xmlio
@@ -61,6 +62,22 @@ def test_choice_is_deterministic_and_explained():
     assert all(c["predicted_error"] > TOLERANCE for c in cheaper)  # nothing cheaper was predicted within
 
 
+@pytest.mark.parametrize("model, params", [("Lambertian", {}), ("BlinnPhong", {"Exponent": 1000.0})])
+def test_the_choice_weighs_cheapest_first_and_predicts_nothing_dearer_than_its_pick(model, params):
+    """The choice stops weighing at the first candidate predicted within: what it weighed is
+    every candidate up to its pick, cheapest first, with the same predictions as weighing them
+    all, and its pick is the cheapest of all within (the dearest, FIS and MIS at 1,024 samples,
+    were most of the time spent choosing a 5 ms prefiltered frame)."""
+    env, material = small(VENICE), lobe(model, **params)
+    choice = choose_lighting(material, env, TOLERANCE)
+    every = predict_all(material, material, env, make_pilot(material, env))
+    weighed = [(c.label, c.predicted_error) for c in choice.candidates]
+    assert weighed == [(c.label, c.predicted_error) for c in every[:len(weighed)]]
+    within = [c for c in every if c.predicted_error <= TOLERANCE]
+    assert choice.within and (choice.mode, choice.setting) == (within[0].mode, within[0].setting)
+    assert choice.candidates[-1].label == within[0].label and len(weighed) < len(every)
+
+
 def test_lambertian_under_a_smooth_map_is_cheap_and_within_tolerance(renderer):
     env, material = small(VENICE), lobe("Lambertian")
     choice = choose_lighting(material, env, TOLERANCE)
@@ -91,7 +108,7 @@ def test_sharp_lobe_under_the_sun_does_not_pick_sh(renderer):
 ])
 def test_predicted_error_is_within_a_factor_of_the_measured(renderer, model, params, mode, setting):
     env, material = small(VENICE), lobe(model, **params)
-    predicted = next(c.predicted_error for c in choose_lighting(material, env, TOLERANCE).candidates
+    predicted = next(c.predicted_error for c in predict_all(material, material, env, make_pilot(material, env))
                      if (c.mode, c.setting) == (mode, setting))
     measured = measured_error(renderer, material, env, mode, setting)
     assert measured / 3 <= predicted <= 3 * measured, (predicted, measured)

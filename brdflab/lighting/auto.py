@@ -8,8 +8,8 @@ pixels against a 64 × 32 copy of the map) plus its tables' own error (`SH_TABLE
 floor); prefiltered, FIS and MIS from their NumPy twins (`auto_twins`: the renderer's own
 estimators, equal to its images to 1e-5) at a few hundred pixels — a 20² grid plus the pixels
 that mirror the map's brightest texels — against a converged estimate of the same pixels.
-The first candidate whose prediction is within the tolerance is chosen; if none is, the one
-predicted best. Nothing is rendered and no reference image is made.
+They are weighed cheapest first, and the first whose prediction is within the tolerance is
+chosen, nothing dearer being predicted; if none is, the one predicted best. Nothing is rendered and no reference image is made.
 
 The twins replaced a Monte Carlo √(Var/N) law with a hand-calibrated factor and
 stratification exponent: a quadrature of the variance over the coarse copy cannot see a lobe
@@ -21,12 +21,14 @@ sunset, three maps the benchmark does not use).
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from typing import Iterator
 
 import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
 from brdflab.lighting.envmap import EnvironmentMap
+from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.prefilter import LIGHTS
 
 DEFAULT_TOLERANCE = 0.02
@@ -80,24 +82,30 @@ def choose_lighting(source, env: EnvironmentMap, tolerance: float = DEFAULT_TOLE
                     proxy=None) -> LightingChoice:
     """The cheapest candidate predicted within `tolerance` (relative RMSE, reference view).
     `proxy`: the analytic lobes the renderer samples and prefilters a measured source with
-    (`sources.proxy.proxy_lobes`, fitted here if not given); analytic sources are their own."""
+    (`sources.proxy.proxy_lobes`, fitted here if not given); analytic sources are their own.
+    Candidates are weighed cheapest first and the first within stops the weighing: what
+    costs more is never predicted (FIS and MIS at 1,024 samples were most of the time)."""
     from brdflab.sources.proxy import proxy_lobes
 
     if not (0.0 < tolerance < 1.0):
         raise BRDFLabError(f"tolerance {tolerance!r}: expected a relative error between 0 and 1 (e.g. 0.02)")
     pilot = make_pilot(source, env)
     proxy = proxy if proxy is not None else proxy_lobes(source)
-    candidates = sorted(predict_all(source, proxy, env, pilot), key=lambda c: c.cost_ms)
-    within = [c for c in candidates if c.predicted_error <= tolerance]
-    chosen = within[0] if within else min(candidates, key=lambda c: c.predicted_error)
-    cheaper = [c for c in candidates if c.cost_ms < chosen.cost_ms]
+    weighed = []
+    for candidate in predictions(source, proxy, env, pilot):
+        weighed.append(candidate)
+        if candidate.predicted_error <= tolerance:
+            break
+    within = [c for c in weighed if c.predicted_error <= tolerance]
+    chosen = within[0] if within else min(weighed, key=lambda c: c.predicted_error)
+    cheaper = [c for c in weighed if c.cost_ms < chosen.cost_ms]
     reasons = [f"{c.label}: predicted {100 * c.predicted_error:.1f} % > {100 * tolerance:g} % ({c.reason})"
                for c in cheaper]
     reasons.append(f"chose {chosen.label}: predicted {100 * chosen.predicted_error:.2f} % "
                    f"{'≤' if within else '> (none is predicted within)'} {100 * tolerance:g} % ({chosen.reason})")
     reasons.insert(0, map_character(pilot))
     return LightingChoice(chosen.mode, chosen.setting, chosen.predicted_error, tolerance, bool(within),
-                          reasons, candidates)
+                          reasons, weighed)
 
 
 def map_character(pilot: Pilot) -> str:
@@ -109,26 +117,44 @@ def map_character(pilot: Pilot) -> str:
     return f"map: its brightest 1 % of texels carry {100 * top[:k].sum() / max(top.sum(), 1e-300):.0f} % of its power"
 
 
-def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candidate]:
-    """Every candidate with its predicted error and frame cost (`proxy`: the analytic lobes
-    the renderer draws the source with where it cannot use measured data directly)."""
+def settings() -> list[tuple[str, int | None]]:
+    """Every candidate (mode, setting), cheapest first by the frame-cost model."""
+    out = [("prefiltered", None), *(("sh", L) for L in SH_ORDERS),
+           *(("fis", n) for n in SAMPLE_COUNTS), *(("mis", n) for n in SAMPLE_COUNTS)]
+    return sorted(out, key=lambda m: FRAME_COST_MS[m[0]](m[1]))
+
+
+def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Candidate]:
+    """Each candidate with its predicted error and frame cost, cheapest first, predicted only
+    when asked for (`proxy`: the analytic lobes the renderer draws the source with where it
+    cannot use measured data directly). What several share — the view pilot's converged
+    pixels, the map's mips — is made when the first of them needs it."""
+    from functools import cache
+
     from brdflab.lighting.auto_twins import fis_errors, mis_errors, view_pilot
 
-    view = view_pilot(source, proxy, env)
-    out = [Candidate("prefiltered", None, prefiltered_error(source, proxy, env, view), FRAME_COST_MS["prefiltered"](None),
-                     f"split sum: lobe shape at n = v, equivalent roughness; the {LIGHTS} brightest texels exact")]
-    for order in SH_ORDERS:
-        truncated = truncation_error(pilot, order)
-        err = float(np.hypot(truncated, SH_TABLE_ERROR))
-        out.append(Candidate("sh", order, err, FRAME_COST_MS["sh"](order),
-                             f"map × lobe energy beyond order {order}: {100 * truncated:.1f} %"))
-    for n, err in fis_errors(source, proxy, env, SAMPLE_COUNTS, view).items():
-        out.append(Candidate("fis", n, err, FRAME_COST_MS["fis"](n),
-                             f"its {n}-sample estimator at the pilot pixels against a converged one"))
-    for n, err in mis_errors(source, proxy, env, SAMPLE_COUNTS, view).items():
-        out.append(Candidate("mis", n, err, FRAME_COST_MS["mis"](n),
-                             f"its {n}-sample estimator at the pilot pixels against a converged one"))
-    return out
+    view = cache(lambda: view_pilot(source, proxy, env))
+    levels = cache(lambda: [level.astype(float) for level in solid_angle_mips(env.data)])
+    for mode, setting in settings():
+        cost = FRAME_COST_MS[mode](setting)
+        if mode == "prefiltered":
+            yield Candidate(mode, None, prefiltered_error(source, proxy, env, view()), cost,
+                            f"split sum: lobe shape at n = v, equivalent roughness; the {LIGHTS} brightest texels exact")
+        elif mode == "sh":
+            truncated = truncation_error(pilot, setting)
+            yield Candidate(mode, setting, float(np.hypot(truncated, SH_TABLE_ERROR)), cost,
+                            f"map × lobe energy beyond order {setting}: {100 * truncated:.1f} %")
+        else:
+            errors = (fis_errors(source, proxy, env, [setting], view(), levels()) if mode == "fis"
+                      else mis_errors(source, proxy, env, [setting], view()))
+            yield Candidate(mode, setting, errors[setting], cost,
+                            f"its {setting}-sample estimator at the pilot pixels against a converged one")
+
+
+def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candidate]:
+    """Every candidate predicted, cheapest first (what `choose_lighting` stops weighing at
+    its pick; the benchmark and the tests compare them all with renders)."""
+    return list(predictions(source, proxy, env, pilot))
 
 
 def truncation_error(pilot: Pilot, order: int) -> float:

@@ -349,8 +349,10 @@ def mis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | No
             for count in counts}
 
 
-def fis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None) -> dict[int, float]:
-    """Per sample count N: the FIS mode's predicted relative RMSE over the view."""
+def fis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None,
+               levels: list[np.ndarray] | None = None) -> dict[int, float]:
+    """Per sample count N: the FIS mode's predicted relative RMSE over the view (`levels`: the
+    map's mips in float64, made here unless given)."""
     pilot = pilot or view_pilot(source, proxy, env)
-    levels = [level.astype(float) for level in solid_angle_mips(env.data)]
+    levels = levels or [level.astype(float) for level in solid_angle_mips(env.data)]
     return {count: pilot.error(fis_pixels(source, proxy, levels, pilot.pixels.frames, count)) for count in counts}
