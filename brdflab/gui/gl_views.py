@@ -521,7 +521,7 @@ class ObjectView(_GLView):
         from functools import partial
 
         from brdflab.lighting.env_sampling import environment_distribution
-        from brdflab.lighting.prefilter import build_stack, map_key, remember_stack
+        from brdflab.lighting.prefilter import map_key, remember_stack, stored_or_built
         from brdflab.lighting.sh import project_environment
         from brdflab.lighting.split_sum import material_split
         from brdflab.lighting.sh_table_auto import AutoTable, build_table
@@ -539,7 +539,7 @@ class ObjectView(_GLView):
             return (environment_distribution, (r.environment,), partial(r.remember_env_distribution, r.environment),
                     "preparing the map for MIS…")
         if self.settings.mode == "prefiltered" and r.environment is not None and not r.prefiltered_ready():
-            return build_stack, (r.environment, map_key(r.environment)), remember_stack, "prefiltering the environment map…"
+            return stored_or_built, (r.environment, map_key(r.environment)), remember_stack, "prefiltering the environment map…"
         pref = r.prefiltered
         if self.settings.mode == "prefiltered" and r.material is not None and not pref.splits_ready(r.material):
             return material_split, (r.material,), partial(pref.remember_splits, pref.material_key(r.material)), ""

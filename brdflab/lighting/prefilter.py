@@ -19,19 +19,24 @@ Each layer is the same quadrature over the map's texels as `reference_view.envir
 kernel depends on longitude only through the difference of longitudes, so each output row
 is a sum over input rows of circular correlations along longitude, done with real FFTs.
 
-Stacks are cached in memory, keyed by the map's pixels (a hash of its data and shape) and
-the stack's resolution, so a renderer, the GUI and the study build each map's stack once.
+Stacks are cached in memory and in the user's cache folder, keyed by the map's pixels (a hash
+of its data and shape), the stack's resolution and this module's code, so a renderer, the GUI
+and the study build each map's stack once, and a later command finds it.
 """
 
 from __future__ import annotations
 
 import hashlib
+import io
 import threading
+import zipfile
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
+from brdflab.errors import BRDFLabError
 from brdflab.lighting.env_sampling import LUMINANCE
 from brdflab.lighting.envmap import EnvironmentMap
 
@@ -232,15 +237,67 @@ def map_key(env: EnvironmentMap) -> str:
 
 
 def prefiltered_stack(env: EnvironmentMap) -> PrefilteredStack:
-    """The map's stack, built once per map (in memory, the CACHE_SIZE most recent maps)."""
+    """The map's stack, built once per map: in memory (the CACHE_SIZE most recent maps), and in
+    the user's cache folder (`prefiltered/`, 16 MB a map), so that a command or a window that
+    meets a map seen before does not build it again (1.3–2 s; most of a cold Render Auto)."""
     key = map_key(env)
     with _LOCK:
         if key in _CACHE:
             _CACHE.move_to_end(key)
             return _CACHE[key]
-    stack = build_stack(env, key)
-    remember_stack(stack)
+    stack = stored_or_built(env, key)
+    _keep(stack)
     return stack
+
+
+def stored_or_built(env: EnvironmentMap, key: str) -> PrefilteredStack:
+    """The stack from the user's cache, or built (counted by `stack_builds`) and stored there;
+    also what the window's worker process runs."""
+    stack = read_stack(key)
+    if stack is None:
+        stack = build_stack(env, key)
+        write_stack(stack)
+        with _LOCK:
+            _BUILDS[0] += 1
+    return stack
+
+
+STACKS = "prefiltered"  # the user cache's folder of stacks
+
+
+def _stack_file(key: str) -> Path:
+    from brdflab.io.user_cache import cache_folder, code_digest
+
+    return cache_folder(STACKS) / f"{key}-{code_digest('lighting/prefilter.py')[:16]}.npz"
+
+
+def read_stack(key: str) -> PrefilteredStack | None:
+    """The stack stored for `key` by this code, or None when there is none or it is not a
+    stack of this layout (a damaged entry is built again, never trusted)."""
+    try:
+        with np.load(_stack_file(key), allow_pickle=False) as archive:
+            layers, lights = archive["layers"], archive["lights"]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return None
+    layout = layers.ndim == 4 and layers.shape[0] == 1 + len(KERNELS) * len(ALPHAS) and layers.shape[3] == 3
+    if not (layout and layers.dtype == np.float32 and lights.dtype == np.float32 and lights.ndim == 2
+            and lights.shape[1] == 6 and np.isfinite(layers).all() and np.isfinite(lights).all()):
+        return None
+    return PrefilteredStack(layers, key, lights)
+
+
+def write_stack(stack: PrefilteredStack) -> None:
+    """Store a stack atomically; an unwritable cache only costs time."""
+    from brdflab.io.atomic import atomic_write
+
+    path = _stack_file(stack.key)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        buffer = io.BytesIO()
+        np.savez(buffer, layers=stack.layers, lights=stack.lights)
+        atomic_write(path, buffer.getvalue())
+    except (OSError, BRDFLabError):
+        pass
 
 
 def is_cached(env: EnvironmentMap) -> bool:
@@ -253,6 +310,11 @@ def remember_stack(stack: PrefilteredStack) -> None:
     with _LOCK:
         if stack.key not in _CACHE:
             _BUILDS[0] += 1
+    _keep(stack)
+
+
+def _keep(stack: PrefilteredStack) -> None:
+    with _LOCK:
         _CACHE[stack.key] = stack
         _CACHE.move_to_end(stack.key)
         while len(_CACHE) > CACHE_SIZE:
