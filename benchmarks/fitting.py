@@ -129,7 +129,17 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json")
     ap.add_argument("--only-published", action="store_true", help="section 2 alone")
+    ap.add_argument("--only-speed", action="store_true", help="section 1 alone, replacing it in an existing --json")
     args = ap.parse_args()
+    if args.only_speed:
+        mats = ["nickel", "white-paint", "blue-fabric"] if not args.quick else ["nickel"]
+        print("1. MERL-size tables, load + fit wall time")
+        speeds = speed(mats, "Ngan") + speed(mats, "L2")
+        if args.json:
+            path = Path(args.json)
+            result = json.loads(path.read_text()) if path.is_file() else {}
+            path.write_text(json.dumps({**result, "speed": speeds}, indent=2))
+        return
     if args.only_published:
         print("2. default fits against published Lafortune fits (Ngan et al. 2005)")
         result = {"published": published(args.quick)}
