@@ -397,7 +397,7 @@ class _Problem:
         for c in range(C):
             Ec = E[min(c, K - 1)]
             wc = weight * self._compression_weight(y[:, c])
-            G[c], b[c] = _weighted_gram(Ec, np.broadcast_to(wc, weight.shape), y[:, c])
+            G[c], b[c] = _weighted_gram(Ec, wc, y[:, c])
             yy[c] = np.einsum("n,n->", wc, y[:, c] ** 2)  # not `@`: OpenBLAS threads 1-D dots badly
             if plain is not None:
                 L = plain.shape[1]

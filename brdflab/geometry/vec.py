@@ -27,16 +27,16 @@ _shared = threading.local()
 
 @contextmanager
 def shared_half_vectors() -> Iterator[None]:
-    """Within this block `half_vector` (and each `shared_term`) of the same two arrays (by
-    identity) is computed once and returned read-only: the lobes of a material, and each
-    perturbed copy of a lobe in a fitting pass, evaluate the same chunk of directions one
-    after another."""
+    """Within this block each `shared_term` (the half vector among them) of the same two
+    arrays (by identity) is computed once and returned read-only: the lobes of a material,
+    and each perturbed copy of a lobe in a fitting pass, evaluate the same chunk of
+    directions one after another."""
     outer = getattr(_shared, "on", False)
-    _shared.on, _shared.key, _shared.h, _shared.term_key, _shared.terms = True, None, None, None, {}
+    _shared.on, _shared.key, _shared.terms = True, None, {}
     try:
         yield
     finally:
-        _shared.on, _shared.key, _shared.h, _shared.term_key, _shared.terms = outer, None, None, None, {}
+        _shared.on, _shared.key, _shared.terms = outer, None, {}
 
 
 def shared_term(wi: np.ndarray, wo: np.ndarray, key: tuple, compute: Callable[[], np.ndarray]) -> np.ndarray:
@@ -46,8 +46,8 @@ def shared_term(wi: np.ndarray, wo: np.ndarray, key: tuple, compute: Callable[[]
     parameter; a perturbation of a colour leaves its distribution and masking as they were."""
     if not getattr(_shared, "on", False):
         return compute()
-    if _shared.term_key is None or _shared.term_key[0] is not wi or _shared.term_key[1] is not wo:
-        _shared.term_key, _shared.terms = (wi, wo), {}
+    if _shared.key is None or _shared.key[0] is not wi or _shared.key[1] is not wo:
+        _shared.key, _shared.terms = (wi, wo), {}
     terms = _shared.terms
     if key not in terms and len(terms) >= MAX_SHARED_TERMS:
         terms.clear()
@@ -59,14 +59,7 @@ def shared_term(wi: np.ndarray, wo: np.ndarray, key: tuple, compute: Callable[[]
 
 
 def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-    if not getattr(_shared, "on", False):
-        return normalize(wi + wo)
-    key = _shared.key
-    if key is None or key[0] is not wi or key[1] is not wo:
-        h = normalize(wi + wo)
-        h.flags.writeable = False
-        _shared.key, _shared.h = (wi, wo), h
-    return _shared.h
+    return shared_term(wi, wo, ("half vector",), lambda: normalize(wi + wo))
 
 
 def schlick(f0, cos_theta):

@@ -57,9 +57,13 @@ def read_entry(kind: str, key: str) -> dict | None:
 
 def write_entry(kind: str, key: str, entry: dict) -> None:
     """Store `entry` under `key`, atomically; an unwritable cache only costs time."""
-    path = cache_folder(kind) / f"{key}.json"
+    store(cache_folder(kind) / f"{key}.json", json.dumps(entry).encode())
+
+
+def store(path: Path, data: bytes) -> None:
+    """Write a cache file atomically, making its folder; an unwritable cache only costs time."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(path, json.dumps(entry).encode())
+        atomic_write(path, data)
     except (OSError, BRDFLabError):
         pass

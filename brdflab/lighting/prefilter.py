@@ -36,7 +36,6 @@ from pathlib import Path
 
 import numpy as np
 
-from brdflab.errors import BRDFLabError
 from brdflab.lighting.env_sampling import LUMINANCE
 from brdflab.lighting.envmap import EnvironmentMap
 
@@ -288,16 +287,11 @@ def read_stack(key: str) -> PrefilteredStack | None:
 
 def write_stack(stack: PrefilteredStack) -> None:
     """Store a stack atomically; an unwritable cache only costs time."""
-    from brdflab.io.atomic import atomic_write
+    from brdflab.io.user_cache import store
 
-    path = _stack_file(stack.key)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        buffer = io.BytesIO()
-        np.savez(buffer, layers=stack.layers, lights=stack.lights)
-        atomic_write(path, buffer.getvalue())
-    except (OSError, BRDFLabError):
-        pass
+    buffer = io.BytesIO()
+    np.savez(buffer, layers=stack.layers, lights=stack.lights)
+    store(_stack_file(stack.key), buffer.getvalue())
 
 
 def is_cached(env: EnvironmentMap) -> bool:

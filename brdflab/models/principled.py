@@ -145,6 +145,17 @@ def gtr1_half_vector(alpha, u):
     return np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=-1)
 
 
+def _scalar_key(p, names) -> tuple[float, ...] | None:
+    """The values of parameters `names`, a key for `shared_term`; None when one is an array
+    (per-sample parameters are not shared)."""
+    return tuple(float(p[n]) for n in names) if all(np.ndim(p[n]) == 0 for n in names) else None
+
+
+def _zeroed(value: np.ndarray, above: np.ndarray) -> np.ndarray:
+    """`value` where both directions are above the horizon and it is finite, else 0."""
+    return np.where(above & np.isfinite(value), value, 0.0)
+
+
 def base_color(p) -> np.ndarray:
     """The base colour, shape (..., 3)."""
     return np.stack(np.broadcast_arrays(*(np.asarray(p[f"base_color_{c}"], float) for c in CHANNELS)), axis=-1)
@@ -217,10 +228,9 @@ class Principled(LobeModel):
         per channel by the colour parameters (`_weights`)."""
         weights = self._weights(p)
         if weights.ndim == 2:
-            shape = tuple(float(p[n]) for n in SHAPE) if all(np.ndim(p[n]) == 0 for n in SHAPE) else None
             stacked = lambda: np.stack(self._terms(wi, wo, p), axis=-1)
-            terms = stacked() if shape is None else shared_term(wi, wo, ("principled terms", *shape), stacked)
-            return terms @ weights
+            shape = _scalar_key(p, SHAPE)
+            return (stacked() if shape is None else shared_term(wi, wo, ("principled terms", *shape), stacked)) @ weights
         return sum(t[..., None] * weights[..., k, :] for k, t in enumerate(self._terms(wi, wo, p)))
 
     @staticmethod
@@ -235,11 +245,11 @@ class Principled(LobeModel):
         cos_d = shared_term(wi, wo, ("principled cos θd",), lambda: dot(wi, h))
         w_d = shared_term(wi, wo, ("principled schlick",), lambda: schlick_weight(cos_d))
         above = shared_term(wi, wo, ("principled above",), lambda: (ci > 0.0) & (co > 0.0))
-        key = lambda *names: tuple(float(p[n]) for n in names) if all(np.ndim(p[n]) == 0 for n in names) else None
 
         def term(name, names, compute):  # 0 below the horizon and where it is not finite
-            zeroed = lambda: (lambda v: np.where(above & np.isfinite(v), v, 0.0))(compute())
-            return zeroed() if key(*names) is None else shared_term(wi, wo, (name, *key(*names)), zeroed)
+            zeroed = lambda: _zeroed(compute(), above)
+            key = _scalar_key(p, names)
+            return zeroed() if key is None else shared_term(wi, wo, (name, *key), zeroed)
 
         def main():
             ax, ay = alphas(p["roughness"], p["anisotropic"])

@@ -17,7 +17,7 @@ from typing import Callable
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.io.user_cache import cache_folder
+from brdflab.io.user_cache import cache_folder, store
 from brdflab.io.numbers import ascii_integer
 from brdflab.simulation import microgeometry, scatmech
 from brdflab.simulation.registry import get_kind
@@ -146,7 +146,6 @@ def compute_table(spec: SimulationSpec, progress: Progress | None = None, worker
 
 def load_table(spec: SimulationSpec, progress: Progress | None = None, workers: int | None = None) -> tuple[HalfDiffTable, float]:
     """The spec's table from the cache, or computed and cached; and the seconds it took."""
-    from brdflab.io.atomic import atomic_write
 
     path = cache_dir() / f"{spec.kind}-{spec.key()}.npy"
     if path.is_file():
@@ -159,13 +158,9 @@ def load_table(spec: SimulationSpec, progress: Progress | None = None, workers: 
     t0 = time.perf_counter()
     table = compute_table(spec, progress, workers)
     seconds = time.perf_counter() - t0
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        buf = io.BytesIO()
-        np.save(buf, table.values)
-        atomic_write(path, buf.getvalue())
-    except (OSError, BRDFLabError):
-        pass  # an unwritable cache only costs time
+    buf = io.BytesIO()
+    np.save(buf, table.values)
+    store(path, buf.getvalue())
     return table, seconds
 
 
