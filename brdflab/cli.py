@@ -360,6 +360,24 @@ def _resolve_auto(args: argparse.Namespace, source, renderer):
     return choice
 
 
+def _prefiltered_check(args: argparse.Namespace, source, renderer) -> tuple[dict, str] | None:
+    """--mode prefiltered: the split sum's predicted error for this material and map
+    (lighting/auto.prefiltered_check), a warning on stderr where it exceeds the bound the mode
+    is trusted within; None when the map is turned (the prediction is for the unturned map)."""
+    from brdflab.lighting.auto import PREFILTERED_BOUND, prefiltered_check
+
+    if args.env_rotation:
+        return None
+    error = prefiltered_check(source, renderer.environment, proxy=renderer.material)
+    line = (f"prefiltered: predicted {100 * error:.1f} % off pixel by pixel (reference view; "
+            f"trusted within {100 * PREFILTERED_BOUND:g} %)")
+    if error > PREFILTERED_BOUND:
+        print(f"brdflab render: warning: the split sum cannot hold this material under this map: predicted "
+              f"{100 * error:.1f} % off pixel by pixel (a narrow lobe under a small bright source, or lobes "
+              "stretched at grazing views); --mode mis or --mode auto", file=sys.stderr)
+    return {"predicted_error": error, "bound": PREFILTERED_BOUND, "trusted": error <= PREFILTERED_BOUND}, line
+
+
 def _sh_table(args: argparse.Namespace):
     """--sh-table as the renderer takes it: a TableSetting, or AutoTable(--sh-table-tolerance)."""
     from brdflab.lighting.sh_table_auto import AutoTable
@@ -417,6 +435,7 @@ def cmd_render(args: argparse.Namespace) -> int:
             raise BRDFLabError("--env-back names the back half of the dual-paraboloid pair given by --env")
         renderer.set_environment(load_environment(env_path, args.env_layout, args.env_back))
     auto = _resolve_auto(args, source, renderer) if args.mode == "auto" else None
+    prefiltered = _prefiltered_check(args, source, renderer) if args.mode == "prefiltered" else None
     settings = RenderSettings(mode=args.mode, width=width, height=height, samples=args.samples, light=light,
                               env_rotation=args.env_rotation, reference_view=args.view == "reference")
     if args.mode == "sh":
@@ -450,6 +469,9 @@ def cmd_render(args: argparse.Namespace) -> int:
     if auto is not None:
         payload["auto"] = auto.as_dict()
         human = "\n".join(auto.reasons + [human])
+    if prefiltered is not None:
+        payload["prefiltered"], line = prefiltered
+        human = "\n".join([line, human])
     if args.mode == "sh":
         payload["settings"]["sh_table"], line = _sh_table_used(renderer)
         human = "\n".join([line, human])
@@ -725,7 +747,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "sampling combined (half the samples each), or auto: the cheapest of these "
                         "predicted within --tolerance for this material and map")
     p.add_argument("--tolerance", type=finite_float, default=0.02,
-                   help="--mode auto: the relative RMSE (reference view) to stay within (default 0.02)")
+                   help="--mode auto: the relative error (reference view, over the view and per pixel) to stay within (default 0.02)")
     p.add_argument("--view", choices=["reference", "orbit"], default="orbit",
                    help="reference: the benchmarks' orthographic unit sphere; orbit: a perspective view of --mesh")
     p.add_argument("--mesh", default="sphere", help="sphere or a mesh file (OBJ, PLY, STL, OFF, GLB)")

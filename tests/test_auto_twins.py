@@ -20,11 +20,7 @@ from brdflab.lighting.auto_twins import (
 from brdflab.lighting.env_sampling import environment_distribution
 from brdflab.lighting.envmap import EnvironmentMap, texel_of, uv_to_direction
 from brdflab.lighting.mip_pyramid import solid_angle_mips
-from brdflab.lighting.reference_view import (
-    refined_environment_image,
-    relative_rmse,
-    sphere_view,
-)
+from brdflab.lighting.reference_view import pixel_relative_rmse, refined_environment_image, relative_rmse, sphere_view
 from brdflab.lighting.sampling_sets import pixel_shifts
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.render.object_view import ObjectRenderer, RenderSettings, independent_image
@@ -123,7 +119,8 @@ def test_sub_texel_lobe_converges_to_the_quadrature(renderer):
 
 def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     """The pilot's converged value is within 1 % of the quadrature, and its predicted FIS and
-    MIS errors are within 1.5× of the renderer's measured ones under a small sun. MIS shifts
+    MIS errors (the larger of the view's and the per-pixel one, what Auto judges) are within
+    1.5× of the renderer's measured ones under a small sun. MIS shifts
     its set per pixel, so one image's error is one draw: it is measured as the RMS over six
     independent images (one image ranged 0.45–0.80 % at 256 samples)."""
     mat = material(Lobe.create("Lambertian", [0.2] * 3), Lobe.create("BlinnPhong", [0.5] * 3, Exponent=300.0))
@@ -140,11 +137,11 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     for mode, errors in (("fis", fis_errors), ("mis", mis_errors)):
         for n, p in errors(mat, mat, env, (16, 256), pilot).items():
             settings = RenderSettings(mode, SIZE, SIZE, samples=n)
+            judged = lambda image: max(relative_rmse(image, reference, inside), pixel_relative_rmse(image, reference, inside))
             if mode == "fis":
-                measured = relative_rmse(renderer.render(settings), reference, inside)
+                measured = judged(renderer.render(settings))
             else:
-                measured = float(np.sqrt(np.mean([relative_rmse(independent_image(renderer, settings, seed), reference, inside) ** 2
-                                                  for seed in range(6)])))
+                measured = float(np.sqrt(np.mean([judged(independent_image(renderer, settings, seed)) ** 2 for seed in range(6)])))
             assert measured / 1.5 <= p <= 1.5 * measured, (mode, n, p, measured)
 
 

@@ -143,3 +143,36 @@ def test_auto_lighting_on_a_measured_slice(window, qtbot):
     chosen_note(qtbot, window)
     expected = choose_lighting(window.workspace.original(), window.object_view.renderer.environment, DEFAULT_TOLERANCE)
     assert_shows_and_draws(qtbot, window, expected)
+
+
+def test_prefiltered_says_in_the_window_where_it_cannot_be_trusted(window, qtbot, tmp_path):
+    """Issue 36 goal 1, as a user meets it: the prefiltered mode chosen by hand for a narrow
+    lobe under a held-out sunrise with a tiny sun; the note under the lighting choice and the
+    banner over the views say the split sum is predicted far off here, with the core's number
+    (`prefiltered_check`, called here); a Lambertian, exact, is said to be trusted; another
+    mode takes the note and the banner away."""
+    from brdflab.lighting.auto import prefiltered_check
+    from brdflab.lighting.envmap import write_exr
+    from brdflab.lighting.synthetic_maps import spec
+
+    env = tmp_path / "sunrise.exr"
+    write_exr(env, spec("sunrise-tiny").build(128, 64).data)
+    open_and_wait(qtbot, window, window.open_environment, env)
+    c, e, view = window.object_controls, window.editor, window.object_view
+    e.lobe_removed.emit(1)
+    e.lobe_removed.emit(0)
+    e.lobe_added.emit("CookTorranceGGX")
+    e.parameter_edited.emit(0, "m", 0.1)
+    c.mode.setCurrentText("prefiltered")
+    note = c.auto_note
+    qtbot.waitUntil(lambda: note.text().startswith("prefiltered: predicted"), timeout=60000)
+    expected = prefiltered_check(window.workspace.original(), view.renderer.environment)
+    assert note.isVisible() and f"predicted {100 * expected:.1f} % off pixel by pixel" in note.text()
+    assert expected > 0.05 and "cannot hold" in note.text() and "#b03030" in note.styleSheet()
+    assert "prefiltered" in window._warnings and view.settings.mode == "prefiltered"
+    e.lobe_removed.emit(0)
+    e.lobe_added.emit("Lambertian")
+    qtbot.waitUntil(lambda: "trusted within 5 %" in note.text(), timeout=60000)
+    assert "prefiltered" not in window._warnings and "#b03030" not in note.styleSheet()
+    c.mode.setCurrentText("mis")
+    assert not note.isVisible() and "prefiltered" not in window._warnings

@@ -1,12 +1,13 @@
 """The object view's Auto lighting: the core's choice (lighting/auto.py) made in a worker
 process for the window, and described in one line (the Object view options) and in full
-(its tooltip). Qt-free, so the worker process that runs `choose_job` never loads Qt."""
+(its tooltip); and for a hand-picked prefiltered mode, the split sum's predicted error.
+Qt-free, so the worker process that runs the jobs never loads Qt."""
 
 from __future__ import annotations
 
 from html import escape
 
-from brdflab.lighting.auto import Candidate, LightingChoice, choose_lighting
+from brdflab.lighting.auto import PREFILTERED_BOUND, Candidate, LightingChoice, choose_lighting, prefiltered_check
 
 # what the prediction is made for (lighting/auto.py); the object view's mesh and camera approximate it
 PREDICTED_FOR = ("the reference view (a sphere seen under the unturned map), without SH self-shadowing, "
@@ -18,6 +19,23 @@ def choose_job(job: tuple) -> tuple[int, LightingChoice]:
     `proxy`: the lobes the renderer samples a measured source with (its own fit), as the CLI passes."""
     token, source, env, tolerance, proxy = job
     return token, choose_lighting(source, env, tolerance, proxy=proxy)
+
+
+def prefiltered_job(job: tuple) -> tuple[int, float]:
+    """(token, source, map, proxy) → (token, the prefiltered mode's predicted error) — run in a
+    worker process (a second or two: the view pilot's converged pixels)."""
+    token, source, env, proxy = job
+    return token, prefiltered_check(source, env, proxy=proxy)
+
+
+def prefiltered_note(error: float) -> tuple[str, bool]:
+    """The line under the lighting choice for the prefiltered mode, and whether it warns."""
+    if error <= PREFILTERED_BOUND:
+        return (f"prefiltered: predicted {100 * error:.1f} % off pixel by pixel "
+                f"(trusted within {100 * PREFILTERED_BOUND:g} %)"), False
+    return (f"prefiltered: predicted {100 * error:.1f} % off pixel by pixel: the split sum cannot hold this "
+            "material under this map (a narrow lobe under a small bright source, or lobes stretched at "
+            "grazing views); choose mis or auto"), True
 
 
 def chosen(choice: LightingChoice) -> Candidate:

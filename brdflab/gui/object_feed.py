@@ -1,6 +1,7 @@
 """The object view's feed: it follows the shown document (gui.document.ShownDocument) and the
 Object view options, shades the material chosen there, and (auto lighting) asks a worker
-process for the cheapest lighting predicted within the tolerance."""
+process for the cheapest lighting predicted within the tolerance, or (prefiltered lighting)
+for the split sum's predicted error, so the window says where the mode cannot be trusted."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from collections.abc import Callable
 from PySide6.QtCore import QObject, QTimer
 
 from brdflab.errors import BRDFLabError
-from brdflab.gui.auto_lighting import choose_job, chosen
+from brdflab.gui.auto_lighting import choose_job, chosen, prefiltered_job, prefiltered_note
 from brdflab.gui.background import LatestOnly
 from brdflab.gui.document import ShownDocument
 from brdflab.gui.gl_views import ObjectView
@@ -36,6 +37,12 @@ class ObjectViewFeed(QObject):
         self._auto_job.done.connect(self._auto_known)
         self._auto_job.failed.connect(
             lambda m: controls.show_auto_note(f"auto: the choice failed: {m}", style=WARNING_STYLE))
+        self._check_for: tuple | None = None  # (source, map) the prefiltered check was asked for
+        self._check_token = 0
+        self._check_job = LatestOnly(prefiltered_job, self)
+        self._check_job.done.connect(self._prefiltered_known)
+        self._check_job.failed.connect(
+            lambda m: controls.show_auto_note(f"prefiltered: the check failed: {m}", style=WARNING_STYLE))
         self._run_timer = QTimer(self, singleShot=True, interval=RUN_REDRAW_MS)
         self._run_timer.timeout.connect(self.draw)
         for signal in (document.material_changed, document.fittings_changed):
@@ -111,7 +118,8 @@ class ObjectViewFeed(QObject):
 
     def request_auto_lighting(self) -> None:
         """Auto lighting: choose again when the drawn source, the map or the tolerance changed
-        — not when the choice itself did."""
+        — not when the choice itself did (and the prefiltered mode's check, likewise)."""
+        self._request_prefiltered_check()
         c, v = self.controls, self.view
         if not c.auto:
             self._auto_for = self.auto_choice = None
@@ -154,6 +162,32 @@ class ObjectViewFeed(QObject):
         if self._lighting_drawn() != before:  # the same setting keeps its accumulated samples
             v.restart()
 
+    def _request_prefiltered_check(self) -> None:
+        """The prefiltered mode chosen by hand: its predicted error for the drawn source and map,
+        asked again when either changed."""
+        c, v = self.controls, self.view
+        r = getattr(v, "renderer", None)
+        if c.mode.currentText() != "prefiltered" or r is None or v.blank or r.source is None or r.environment is None:
+            self._check_for = None
+            self._warn("prefiltered", None)
+            return
+        key = (r.source, r.environment)
+        if self._check_for is not None and all(a is b for a, b in zip(self._check_for, key)):
+            return
+        self._check_for = key
+        self._check_token += 1
+        c.show_auto_note("prefiltered: predicting its error for this material and map…", style=PENDING_STYLE)
+        self._check_job.request((self._check_token, r.source, r.environment, r.material))
+
+    def _prefiltered_known(self, result: tuple) -> None:
+        token, error = result
+        if token != self._check_token or self.controls.mode.currentText() != "prefiltered":
+            return
+        text, warns = prefiltered_note(error)
+        self.controls.show_auto_note(text, style=WARNING_STYLE if warns else "")
+        self._warn("prefiltered", f"Prefiltered lighting: predicted {100 * error:.1f} % off pixel by pixel here; "
+                                  "choose mis or auto" if warns else None)
+
     def _lighting_drawn(self) -> tuple:
         """The view's lighting: mode, samples and (SH) the renderer's order."""
         s, r = self.view.settings, self.view.renderer
@@ -161,3 +195,4 @@ class ObjectViewFeed(QObject):
 
     def shutdown(self) -> None:
         self._auto_job.shutdown()
+        self._check_job.shutdown()

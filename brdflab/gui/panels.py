@@ -527,7 +527,7 @@ class ObjectControls(QWidget):
         self.tolerance = QDoubleSpinBox(minimum=0.01, maximum=50.0, value=100 * LIGHTING_TOLERANCE, decimals=2,
                                         singleStep=0.5, suffix=" %", enabled=False)
         self.tolerance.setKeyboardTracking(False)
-        self.tolerance.setToolTip("auto: the relative RMSE (reference view) the chosen lighting is predicted to stay within")
+        self.tolerance.setToolTip("auto: the relative error (reference view, over the view and per pixel) the chosen lighting is predicted to stay within")
         self.auto_note = WrappedLabel()
         self.auto_note.setVisible(False)
         self.auto_caveat = WrappedLabel()  # where the view departs from what the choice predicts for
@@ -604,7 +604,7 @@ class ObjectControls(QWidget):
         for w in (self.samples, self.sh_order):
             w.setEnabled(not self.auto)
         self.tolerance.setEnabled(self.auto)
-        self.auto_note.setVisible(self.auto)
+        self.auto_note.setVisible(self.auto or self.mode.currentText() == "prefiltered")  # what either predicts
         if not self.auto:
             self._auto_mode = None
         self._show_auto_caveat()
@@ -623,7 +623,7 @@ class ObjectControls(QWidget):
         self.auto_caveat.setVisible(bool(text))
 
     def show_auto_note(self, text: str, tooltip: str = "", style: str = "") -> None:
-        """The line under the lighting choice: what auto chose (or is doing), and why."""
+        """The line under the lighting choice: what auto chose (or is doing) and why, or how far off the prefiltered mode is predicted."""
         self.auto_note.setText(text)
         self.auto_note.setToolTip(tooltip)
         self.auto_note.setStyleSheet(style)

@@ -43,9 +43,13 @@ class Pilot:
         return self.albedo * (self.g.T @ (radiance * self.solid)) / np.maximum(norm, 1e-300)
 
     def relative_rmse(self, estimate: np.ndarray) -> float:
-        """The reference view's error measure over the pilot pixels."""
+        """The error Auto judges by (`auto_twins.ViewPilot.error`) over the pilot pixels: the
+        larger of the view's relative RMSE and the RMS of each pixel's relative error."""
+        from brdflab.lighting.reference_view import weighted_pixel_error
+
         truth = self.estimate(self.radiance)
-        return float(np.sqrt(np.mean((estimate - truth) ** 2)) / max(np.sqrt(np.mean(truth**2)), 1e-300))
+        rms = float(np.sqrt(np.mean((estimate - truth) ** 2)) / max(np.sqrt(np.mean(truth**2)), 1e-300))
+        return max(rms, weighted_pixel_error(estimate, truth, np.full(len(truth), 1.0 / len(truth))))
 
 
 def pilot_map(env: EnvironmentMap) -> EnvironmentMap:

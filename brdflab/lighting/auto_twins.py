@@ -26,6 +26,7 @@ from brdflab.geometry.sampling import cosine_hemisphere
 from brdflab.lighting.auto_pilot import LUMINANCE
 from brdflab.lighting.envmap import EnvironmentMap, texel_of
 from brdflab.lighting.mip_pyramid import solid_angle_mips
+from brdflab.lighting.reference_view import weighted_pixel_error
 from brdflab.lighting.split_sum import sample_latlong
 
 FIS_PILOT_GRID = 20  # the pilot pixels: the centres of a 20 × 20 reference view inside the sphere (≈ 310)
@@ -309,16 +310,22 @@ class ViewPilot:
     truth: np.ndarray  # (pixels, 3) RGB
     dist: object  # the map's luminance distribution (env_sampling.EnvironmentDistribution), built once
     truth_variance: np.ndarray  # (pixels, 3): the converged value's own squared error, estimated
+    lum_variance: np.ndarray  # (pixels,): the same for its luminance
 
     def error(self, values: np.ndarray) -> float:
-        """Relative RMSE (RGB, as the reference view's error is measured) over the view, with
-        the converged value's own error taken out: a method's error and the truth's are
-        independent, so their squares add (MIS at 256 samples, 0.44 % off the quadrature, was
-        predicted 0.70 % against a truth of 4,096 samples)."""
+        """The error Auto judges a mode by: the larger of the view's relative RMSE (RGB, as the
+        reference view's error is measured) and the RMS of each pixel's relative error in
+        luminance (`reference_view.pixel_relative_rmse`, the error a user sees: 2–3 times the
+        first for FIS on a soft sky, where the dim rim is off and the bright centre is not),
+        both with the converged value's own error taken out: a method's error and the truth's
+        are independent, so their squares add (MIS at 256 samples, 0.44 % off the quadrature,
+        was predicted 0.70 % against a truth of 4,096 samples)."""
         w = self.pixels.weight[:, None]
         rms = max(float(np.sqrt((w * self.truth**2).sum() / 3)), 1e-300)
         square = float((w * (values - self.truth) ** 2).sum() / 3) - float((w * self.truth_variance).sum() / 3)
-        return float(np.sqrt(max(square, 0.0))) / rms
+        lum = lambda rgb: rgb[:, :3] @ LUMINANCE
+        per_pixel = weighted_pixel_error(lum(values), lum(self.truth), self.pixels.weight, self.lum_variance)
+        return max(float(np.sqrt(max(square, 0.0))) / rms, per_pixel)
 
 
 def view_pilot(source, proxy, env: EnvironmentMap, pixels: PilotPixels | None = None) -> ViewPilot:
@@ -329,7 +336,8 @@ def view_pilot(source, proxy, env: EnvironmentMap, pixels: PilotPixels | None = 
     pixels = pixels or fis_pixels_of(env)
     dist = environment_distribution(env)
     a, b = _converged_halves(source, proxy, env, dist, pixels.frames, TRUTH_SAMPLES)
-    return ViewPilot(pixels, (a + b) / 2, dist, (a - b) ** 2 / 4)
+    half = (a - b) / 2
+    return ViewPilot(pixels, (a + b) / 2, dist, half**2, (half[:, :3] @ LUMINANCE) ** 2)
 
 
 def mis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None) -> dict[int, float]:
