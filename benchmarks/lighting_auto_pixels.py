@@ -31,7 +31,7 @@ from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.render.context import create_context
 from brdflab.render.object_view import ObjectRenderer, RenderSettings
 from brdflab.study.framework import measured_slice
-from brdflab.study.lighting import quadrature_reference
+from brdflab.study.lighting import build_sh_table, quadrature_reference
 
 SIZE = 32
 MAP_SIZE = (128, 64)
@@ -80,8 +80,6 @@ def main() -> None:
             seconds = time.perf_counter() - t0
             renderer.set_source(material)
             if choice.mode == "sh":
-                from brdflab.study.lighting import build_sh_table
-
                 build_sh_table(material, choice.setting)
                 renderer.set_sh_order(choice.setting)
             samples = choice.setting if choice.mode in ("fis", "mis") else 1

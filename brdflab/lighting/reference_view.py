@@ -101,8 +101,8 @@ def refined_environment_image(source, env: EnvironmentMap, width: int, height: i
     per pixel, the texels that reach within `cap_degrees` of its mirror direction (where a
     sharp lobe is), and the map's bright texels (a sun or a lamp: at its centre alone the
     lobe's tail or the pixel's horizon crossing the texel is not seen, 2.3 % per pixel and
-    13 % at the edge of a highlight under a one-texel sun), are each split `subdivision` × `subdivision` in (u, v), every
-    part evaluated at its centre with its exact solid angle; the others by their centres as
+    13 % at the edge of a highlight under a one-texel sun), are each split `subdivision` ×
+    `subdivision` in (u, v), every part evaluated at its centre with its exact solid angle; the others by their centres as
     before. The parts partition the texels exactly, so a bright texel (a sun) is counted
     once, and the quadrature converges as a midpoint rule does (error ∝ part size²)."""
     view = sphere_view(width, height)
@@ -112,9 +112,8 @@ def refined_environment_image(source, env: EnvironmentMap, width: int, height: i
     h, w, k = env.height, env.width, subdivision
     # a texel is near when any of it may lie within the cone: its centre within the cone
     # widened by half a texel diagonal
-    half_diagonal = 0.5 * np.hypot(np.pi / h, 2.0 * np.pi / w)
-    cos_near = np.cos(np.radians(cap_degrees) + half_diagonal)
-    lum = env.data.reshape(-1, 3)[:, :3].astype(float) @ LUMINANCE
+    cos_near = np.cos(np.radians(cap_degrees) + 0.5 * np.hypot(np.pi / h, 2.0 * np.pi / w))
+    lum = env.data.reshape(-1, 3).astype(float) @ LUMINANCE
     bright = lum >= BRIGHT * max(float(lum.mean()), 1e-300)
     offsets = (np.arange(k) + 0.5) / k
     z = np.array([0.0, 0.0, 1.0])

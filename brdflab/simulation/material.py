@@ -146,7 +146,6 @@ def compute_table(spec: SimulationSpec, progress: Progress | None = None, worker
 
 def load_table(spec: SimulationSpec, progress: Progress | None = None, workers: int | None = None) -> tuple[HalfDiffTable, float]:
     """The spec's table from the cache, or computed and cached; and the seconds it took."""
-
     path = cache_dir() / f"{spec.kind}-{spec.key()}.npy"
     if path.is_file():
         try:
