@@ -174,5 +174,16 @@ def test_prefiltered_says_in_the_window_where_it_cannot_be_trusted(window, qtbot
     e.lobe_added.emit("Lambertian")
     qtbot.waitUntil(lambda: "trusted within 5 %" in note.text(), timeout=60000)
     assert "prefiltered" not in window._warnings and "#b03030" not in note.styleSheet()
+    # back to the narrow lobe, and every lobe removed while its check is still running: the
+    # answer that arrives is for what is no longer drawn, and is not shown
+    e.lobe_removed.emit(0)
+    e.lobe_added.emit("CookTorranceGGX")
+    e.parameter_edited.emit(0, "m", 0.1)
+    check = window.object_feed._check_job
+    qtbot.waitUntil(lambda: check.busy, timeout=10000)
+    e.lobe_removed.emit(0)
+    qtbot.waitUntil(lambda: not check.busy, timeout=60000)
+    qtbot.wait(200)
+    assert note.text() == "prefiltered: nothing to light" and "prefiltered" not in window._warnings
     c.mode.setCurrentText("mis")
     assert not note.isVisible() and "prefiltered" not in window._warnings

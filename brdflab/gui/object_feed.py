@@ -123,16 +123,14 @@ class ObjectViewFeed(QObject):
         c, v = self.controls, self.view
         if not c.auto:
             self._auto_for = self.auto_choice = None
+            self._auto_token += 1  # a choice still on its way is for what was drawn before
             self._warn("auto", None)
             return
-        r = getattr(v, "renderer", None)  # none before OpenGL starts: the default scene asks again
-        unable = None
-        if r is None or v.blank or r.source is None:
-            unable = ("auto: nothing to light", PENDING_STYLE)
-        elif r.environment is None:
-            unable = ("auto: no environment map to light with", WARNING_STYLE)
+        r = v.renderer
+        unable = self._nothing_to_light("auto")
         if unable is not None:
             self._auto_for = None
+            self._auto_token += 1
             self._warn("auto", None)
             c.show_auto_note(unable[0], style=unable[1])
             return
@@ -162,15 +160,30 @@ class ObjectViewFeed(QObject):
         if self._lighting_drawn() != before:  # the same setting keeps its accumulated samples
             v.restart()
 
+    def _nothing_to_light(self, mode: str) -> tuple[str, str] | None:
+        """Why `mode`'s prediction cannot be made now (the note and its style), or None."""
+        v = self.view
+        r = getattr(v, "renderer", None)  # none before OpenGL starts: the default scene asks again
+        if r is None or v.blank or r.source is None:
+            return f"{mode}: nothing to light", PENDING_STYLE
+        if r.environment is None:
+            return f"{mode}: no environment map to light with", WARNING_STYLE
+        return None
+
     def _request_prefiltered_check(self) -> None:
         """The prefiltered mode chosen by hand: its predicted error for the drawn source and map,
         asked again when either changed."""
         c, v = self.controls, self.view
-        r = getattr(v, "renderer", None)
-        if c.mode.currentText() != "prefiltered" or r is None or v.blank or r.source is None or r.environment is None:
+        chosen_by_hand = c.mode.currentText() == "prefiltered"
+        unable = self._nothing_to_light("prefiltered") if chosen_by_hand else None
+        if not chosen_by_hand or unable is not None:
             self._check_for = None
+            self._check_token += 1  # an answer still on its way is for what was drawn before
             self._warn("prefiltered", None)
+            if unable is not None:
+                c.show_auto_note(unable[0], style=unable[1])
             return
+        r = v.renderer
         key = (r.source, r.environment)
         if self._check_for is not None and all(a is b for a, b in zip(self._check_for, key)):
             return
