@@ -3,6 +3,8 @@ lobe (white furnace), for every importance-sampled model at smooth, rough and an
 settings — sharp settings are where samplers break (issue 12). A sampler given the pdf of a 10 % different
 exponent fails the χ² test by thousands."""
 
+import zlib
+
 import numpy as np
 import pytest
 from scipy.stats import chi2 as chi2_distribution
@@ -69,7 +71,9 @@ def cell_integrals(model, params: dict, wo: np.ndarray) -> np.ndarray:
 def test_sampler_passes_chi2_against_its_pdf(name, k, view):
     model, params = get_model(name), params_of(name, k)
     wo = spherical_to_cartesian(np.radians(view[0]), np.radians(view[1]))
-    rng = np.random.default_rng(abs(hash((name, k, view))) % 2**32)
+    # a seed of the case alone: hash() of a string changes from process to process, so every
+    # run drew new samples and the suite failed 1 % of the time at the test's own significance
+    rng = np.random.default_rng(zlib.crc32(repr((name, k, view)).encode()))
     wi = model.sample(np.broadcast_to(wo, (N_SAMPLES, 3)), rng.random((N_SAMPLES, 2)), params)
     ok = np.isfinite(wi).all(axis=1) & (np.linalg.norm(wi, axis=1) > 0.5)
     wi = wi[ok] / np.linalg.norm(wi[ok], axis=1, keepdims=True)
