@@ -177,6 +177,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from brdflab.fitting.lm import FitOptions, fit
     from brdflab.io.atomic import check_writable
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
+    from brdflab.fitting.image_metric import fit_target
     from brdflab.fitting.samples import MAX_DENSITY, samples_of
     from brdflab.sources.files import load_source
     from brdflab.io.xmlio import check_savable, save
@@ -189,6 +190,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
         if given and not args.auto:
             raise BRDFLabError(f"{option} applies to --auto")
     if args.auto:
+        if args.env:
+            raise BRDFLabError("--env applies to --metric image, which --auto does not take")
         return _fit_auto(args, Path(args.source))
     for option, value, kind in (("--size", args.size, "subset"), ("--density", args.density, "grid")):
         if value is not None and args.samples != kind:
@@ -205,7 +208,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
                              Path(args.init) if args.init else None, args.init_fitting)
     if args.out:
         check_savable(document_for(source_path, source), args.out, start)  # a name XML cannot hold
-    samples = samples_of(source, args.samples, size=args.size, density=args.density)
+    if args.metric == "image" and args.samples != "all":
+        raise BRDFLabError(f"--samples {args.samples} applies to sample metrics; --metric image fits renders")
+    maps = _image_maps(args)
+    samples = fit_target(source, args.metric, {"kind": args.samples, "size": args.size, "density": args.density}, maps)
     score_on = samples_of(source) if args.samples != "all" else None
     restarts = args.restarts if args.restarts is not None else not args.init  # a stored fit is continued
     options = FitOptions(metric=args.metric, compression=args.compression, max_iterations=args.max_iterations,
@@ -235,14 +241,15 @@ def cmd_fit(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGINT, previous)
         if show:
             print(file=sys.stderr)
-    payload = {**result.as_dict(), "samples": samples.size, "source": str(source_path)}
+    other = _other_error(result, source, samples, maps)
+    payload = {**result.as_dict(), **other, "samples": samples.size, "source": str(source_path)}
     if args.out:
         doc = document_for(source_path, source)
         append_fitting(doc, result)
         save(doc, Path(args.out))
         payload["out"] = args.out
     human = (f"{result.metric} error {result.error:.6g} on {result.scored_on} after {result.iterations} iterations "
-             f"({result.seconds:.2f} s, {result.status})")
+             f"({result.seconds:.2f} s, {result.status}); {_other_error_text(other)}")
     for w in result.warnings:
         print(f"brdflab fit: warning: {w}", file=sys.stderr)
     if result.status == "no-better-than-zero":
@@ -253,6 +260,41 @@ def cmd_fit(args: argparse.Namespace) -> int:
         print(f"brdflab fit: interrupted{saved}", file=sys.stderr)
         return 130
     return 0
+
+
+def _image_maps(args: argparse.Namespace) -> list | None:
+    """`fit --env MAP ...`: the image metric's maps (None: its default three)."""
+    from brdflab.lighting.envmap import load_environment
+
+    if not args.env:
+        return None
+    if args.metric != "image":
+        raise BRDFLabError("--env applies to --metric image (the maps its renders are lit by)")
+    return [load_environment(Path(p)) for p in args.env]
+
+
+def _other_error(result, source, fitted, maps: list | None) -> dict:
+    """Every fit reports both numbers (issue 34): the image error of a sample-metric fit under
+    the image metric's maps, the Ngan error over every sample of an image-metric fit."""
+    from brdflab.fitting.defaults import DEFAULT_METRIC
+    from brdflab.fitting.image_metric import SceneImages
+    from brdflab.fitting.metrics import metric_error
+    from brdflab.fitting.samples import samples_of
+
+    if isinstance(fitted, SceneImages):
+        return {"sample_error": {"metric": DEFAULT_METRIC, "error": metric_error(result.material, samples_of(source),
+                                                                                  DEFAULT_METRIC)}}
+    scene = SceneImages.of_source(source, maps)
+    return {"image_error": {"error": scene.errors([result.material])[0],
+                            "maps": [q.name for q in scene.quadratures]}}
+
+
+def _other_error_text(other: dict) -> str:
+    if "image_error" in other:
+        e = other["image_error"]
+        return f"image error {e['error']:.4g} under {', '.join(e['maps'])}"
+    e = other["sample_error"]
+    return f"{e['metric']} error {e['error']:.6g} on all samples"
 
 
 def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
@@ -695,7 +737,12 @@ def build_parser() -> argparse.ArgumentParser:
                                     "files (default: all); a folder in the list adds its model files, as --models DIR "
                                     "does on other commands")
     p.add_argument("--combination", choices=["linear", "fixed"], default="linear", help="how lobes combine")
-    p.add_argument("--metric", default=DEFAULT_METRIC, help="Ngan, L2 or cosL2")
+    p.add_argument("--metric", default=DEFAULT_METRIC,
+                   help="Ngan, L2, cosL2 (over BRDF samples) or image (renders of the reference view under "
+                        "three maps, or --env, cube-root toned)")
+    p.add_argument("--env", action="append", default=[],
+                   help="with --metric image: a map the renders are lit by (repeat for several; default: "
+                        "three synthetic maps, a sky with a sun, a room with a window, a studio)")
     p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"], help="of the values fitted")
     p.add_argument("--init", type=material_path, help="XML file whose last fitting (or material) is the initial guess")
     p.add_argument("--init-fitting", type=int_in(0, 1_000_000), default=None, help="use this stored fitting of --init")

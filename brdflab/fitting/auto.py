@@ -43,7 +43,7 @@ import numpy as np
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.defaults import DEFAULT_METRIC
 from brdflab.fitting.lm import FitOptions, FitResult, fit, material_from_lobes, parameter_count
-from brdflab.fitting.metrics import metric_errors
+from brdflab.fitting.metrics import SAMPLE_METRICS, metric_errors
 from brdflab.fitting.samples import ArraySampleSet, SampleSet
 from brdflab.fitting.stored import fitting_of
 from brdflab.io.xmlio import Fitting
@@ -368,6 +368,9 @@ def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: s
     fit stops within a sample chunk and the ladder so far is returned (its `reason` says so)."""
     validate_tolerance(tolerance)
     validate_models(models or [])
+    if metric not in SAMPLE_METRICS:
+        raise BRDFLabError(f"Auto judges its rungs on held-back samples: it takes a sample metric "
+                           f"({', '.join(SAMPLE_METRICS)}), not {metric}")
     t0, c0 = time.perf_counter(), time.process_time()
     options = replace(options or FitOptions(), metric=metric, diagnose=False)
     options.validate()

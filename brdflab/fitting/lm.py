@@ -42,7 +42,8 @@ from brdflab.models import get_model
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULT_RESTARTS
 from brdflab.fitting.diagnosis import suspicions
 from brdflab.fitting.nnls import nnls
-from brdflab.fitting.metrics import METRICS, lobe_shares, metric_errors, sample_weight
+from brdflab.fitting.image_metric import SceneImages
+from brdflab.fitting.metrics import METRICS, check_metric, lobe_shares, metric_errors, sample_weight
 from brdflab.fitting.samples import SampleSet
 from brdflab.geometry.vec import shared_half_vectors
 
@@ -50,6 +51,7 @@ COMPRESSIONS = ("none", "cbrt", "log")
 FD_STEP = 1e-5  # in the search variables; 1e-4 was too coarse for sharp lobes (see `_normal_equations`)
 COST_ROUNDING = 16 * np.finfo(float).eps  # relative rounding of a cost summed from Gram matrices
 MEDIUM = 4  # the middle stage's subset, in coarse subsets
+SCENE_COARSE = 16  # the image metric's coarse stage: every fourth pixel's row and column
 RESTART_ITERATIONS = 40  # LM steps of each restart (the start the user gave gets max_iterations)
 DEAD_SHARE = 1e-3  # a lobe carrying less of a fit's metric-weighted energy is dead (see `_revive`)
 # a parameter that starts within this fraction of its (logistic) range from a bound is
@@ -235,6 +237,8 @@ class FitOptions:
             raise BRDFLabError(f"unknown metric {self.metric!r} (known: {', '.join(METRICS)})")
         if self.compression not in COMPRESSIONS:
             raise BRDFLabError(f"unknown compression {self.compression!r} (known: {', '.join(COMPRESSIONS)})")
+        if self.metric == "image" and self.compression != "none":
+            raise BRDFLabError("the image metric has its own tone curve: no --compression with it")
         if self.max_iterations < 1:
             raise BRDFLabError("max_iterations must be at least 1")
         if not self.time_limit > 0:  # also refuses NaN
@@ -301,8 +305,10 @@ class _Problem:
                 f"the source has {samples.n_channels} channels, the material {material.n_channels}")
         if not material.lobes:
             raise BRDFLabError("a fit needs at least one lobe")
+        check_metric(options.metric, samples)
         self.material = material
         self.samples = samples
+        self.scene = samples if isinstance(samples, SceneImages) else None  # the image metric
         self.options = options
         self.linear = material.combination == "Linear"
         self.blocks = free_blocks(material, magnitude_cap)
@@ -423,6 +429,28 @@ class _Problem:
             d = 1.0 / (1.0 + y)
         return d * d
 
+    def _block_images(self, rows, block) -> np.ndarray:
+        """(C, R, P): the rows' images from one block of the scene's pairs."""
+        reason = self.stop()
+        if reason is not None:
+            raise _Stopped(reason)
+        _, _, wi, wo, _ = block
+        lobes = self.material.lobes
+        C = self.scene.n_channels
+        K = 3 if C == 3 and any(lobes[l].model.colour for l, _ in rows) else 1
+        E = np.empty((K, len(rows), wi.shape[0]))
+        with shared_half_vectors():
+            for r, (l, p) in enumerate(rows):
+                E[:, r] = lobe_channels(lobes[l].model, wi, wo, p, C).T
+        return self.scene.block_images(block, E)
+
+    def scene_images(self, rows) -> np.ndarray:
+        """(C, R, P): every row's images under the scene's maps."""
+        self.passes += 1
+        work = lambda block: self._block_images(rows, block)
+        parts = self._pool.map(work, self.scene.blocks()) if self._pool else map(work, self.scene.blocks())
+        return sum(parts)
+
     def accumulate(self, rows):
         """Sum the per-chunk Gram matrices over the whole sample set."""
         self.passes += 1
@@ -478,6 +506,8 @@ class _Problem:
     def evaluate(self, u: np.ndarray, with_jacobian: bool = True):
         """Cost (sum of weighted squared residuals), JᵀJ, Jᵀr, named-metric error, scales."""
         rows, perturbed = self._rows(u, with_jacobian)
+        if self.scene is not None:
+            return self._evaluate_images(u, rows, perturbed, with_jacobian)
         G, b, yy, plain, plain_b, plain_yy, norm = self.accumulate(rows)
         A = self._coefficients(G, b, u, perturbed)
         # inner products of the residual vectors of all perturbations, summed over channels
@@ -499,6 +529,26 @@ class _Problem:
             return cost, None, None, error, scales
         jtj, jtr = _normal_equations(inner, self.central)
         return cost, jtj, jtr, error, scales
+
+    def _evaluate_images(self, u, rows, perturbed, with_jacobian: bool):
+        """`evaluate` under the image metric: the rows' images, Linear scales by NNLS on the
+        tone curve linearised at the source, then every perturbation's image taken through
+        the tone curve itself, so the cost is the metric's and the finite differences of
+        the Jacobian see the curve exactly."""
+        images = self.scene_images(rows)  # (C, R, P)
+        lw, y = self.scene.linear_weight, self.scene.target
+        G = np.einsum("crp,cp,csp->crs", images, lw, images)
+        b = np.einsum("crp,cp,cp->cr", images, lw, y)
+        A = self._coefficients(G, b, u, perturbed)
+        residuals = self.scene.toned_residuals(np.einsum("ckr,crp->kcp", A, images))  # (K, C·P)
+        inner = residuals @ residuals.T
+        cost = float(inner[0, 0])
+        self.cost_floor = COST_ROUNDING
+        scales = A[:, 0, :len(self.material.lobes)]
+        if not with_jacobian:
+            return cost, None, None, math.sqrt(max(cost, 0.0)), scales
+        jtj, jtr = _normal_equations(inner, self.central)
+        return cost, jtj, jtr, math.sqrt(max(cost, 0.0)), scales
 
 
 GRAM_BLOCK = 8192  # samples per block of a Gram matrix: R rows of it stay in the CPU's cache
@@ -691,6 +741,8 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
     coarse = None
     if options.coarse_size and samples.size > 2 * options.coarse_size:
         coarse = samples.subset(options.coarse_size)
+    elif options.coarse_size and isinstance(samples, SceneImages):
+        coarse = samples.subset(samples.size // SCENE_COARSE)  # every other pixel's row and column
 
     start_materials = [material]
     if options.restarts:
@@ -770,6 +822,8 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
                    "these lobes cannot represent this source")
     warnings = suspicions(result_material) if options.diagnose else []
     what = "all samples fitted" if score_on is None or score_on is samples else f"{scored.size} samples (all of the source)"
+    if isinstance(scored, SceneImages):
+        what = f"renders under {len(scored.quadratures)} maps"
     return FitResult(result_material, error, options.metric, time.perf_counter() - t0, iterations,
                      passes, status, message, history, warnings, zero_error, what)
 

@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from brdflab.errors import BRDFLabError
+from brdflab.fitting.image_metric import SceneImages
 from brdflab.fitting.samples import SampleSet
 from brdflab.geometry.vec import shared_half_vectors
 
@@ -21,14 +22,26 @@ METRICS = {
     "Ngan": "Ngan et al. 2005: RMS of (f − f') cos θi over the solid-angle measure, θi and θo ≤ 80°",
     "L2": "RMS of f − f' (1/sr) over the solid-angle measure, θi and θo ≤ 80°",
     "cosL2": "RMS of (f − f') cos θi over the solid-angle measure of the whole hemisphere",
+    "image": "renders of the reference view under three maps, cube-root toned, RMS relative to the source's "
+             "(image_metric.py)",
 }
+SAMPLE_METRICS = tuple(m for m in METRICS if m != "image")
+
+
+def check_metric(metric: str, samples: SampleSet) -> None:
+    """The image metric runs over a scene's renders, every other over samples."""
+    if metric not in METRICS:
+        raise BRDFLabError(f"unknown metric {metric!r} (known: {', '.join(METRICS)})")
+    if (metric == "image") != isinstance(samples, SceneImages):
+        raise BRDFLabError("the image metric compares renders of a scene (SceneImages), the others samples"
+                           if metric == "image" else f"the {metric} metric needs samples, not a scene's renders")
 
 
 def sample_weight(metric: str, wi: np.ndarray, wo: np.ndarray, measure: np.ndarray, cosine: bool = True) -> np.ndarray:
     """Per-sample weight of squared differences under `metric` (cosine=False: the
     normalising weight, the measure of the metric's domain)."""
-    if metric not in METRICS:
-        raise BRDFLabError(f"unknown metric {metric!r} (known: {', '.join(METRICS)})")
+    if metric not in SAMPLE_METRICS:
+        raise BRDFLabError(f"unknown sample metric {metric!r} (known: {', '.join(SAMPLE_METRICS)})")
     w = np.asarray(measure, float)
     if metric != "cosL2":
         w = np.where((wi[:, 2] >= NGAN_MAX_COS) & (wo[:, 2] >= NGAN_MAX_COS), w, 0.0)
@@ -39,7 +52,11 @@ def sample_weight(metric: str, wi: np.ndarray, wo: np.ndarray, measure: np.ndarr
 
 def metric_errors(materials: list, samples: SampleSet, metric: str) -> list[float]:
     """The named-metric error of each material (None: a zero BRDF) over the samples, in one
-    pass: sqrt(Σ w (f − y)² / (Σ w_norm · C)), summed directly from the residuals."""
+    pass: sqrt(Σ w (f − y)² / (Σ w_norm · C)), summed directly from the residuals; the
+    image metric's over a scene's renders."""
+    check_metric(metric, samples)
+    if isinstance(samples, SceneImages):
+        return samples.errors(materials)
     num = np.zeros(len(materials))
     den = 0.0
     for wi, wo, y, measure in samples.chunks():
@@ -84,6 +101,9 @@ def grid_error(reference, candidate, metric: str = "Ngan", n_theta: int = 16, n_
 def lobe_shares(material, samples: SampleSet, metric: str) -> np.ndarray:
     """Each lobe's share of the material's metric-weighted energy on the samples:
     Σ w ‖its contribution‖² / Σ w ‖f‖² (0 for a lobe scaled to 0; the shares need not sum to 1)."""
+    check_metric(metric, samples)
+    if isinstance(samples, SceneImages):
+        return samples.lobe_shares(material, _contribution)
     own = np.zeros(len(material.lobes))
     total = 0.0
     for wi, wo, _, measure in samples.chunks():

@@ -202,8 +202,8 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
     import time
 
     from brdflab.errors import BRDFLabError
+    from brdflab.fitting.image_metric import fit_target
     from brdflab.fitting.lm import fit
-    from brdflab.fitting.samples import samples_of
 
     last = [0.0]
 
@@ -214,7 +214,7 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
             messages.put(("progress", p))
 
     try:
-        samples = samples_of(source, **sampling)
+        samples = fit_target(source, options.metric, sampling)
         messages.put(("started", samples.size))
         messages.put(("finished", fit(start, samples, options, progress=progress, cancel=cancel)))
     except BRDFLabError as e:

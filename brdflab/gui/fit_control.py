@@ -49,7 +49,8 @@ class FitControl:
         options = FitOptions(metric=metric)
         # the samples are drawn and the fit runs in a worker process: the window stays live
         self._start_worker(FitProcess(start, source, {"kind": kind, "size": size, "density": 45}, options, self),
-                           lambda n: f"fitting {n} samples…", self._fit_progress, self._fit_finished,
+                           lambda n: f"fitting {n} pixels of three renders…" if metric == "image" else
+                           f"fitting {n} samples…", self._fit_progress, self._fit_finished,
                            "starting the fit…")
 
     def _start_worker(self, thread, started: Callable[[int], str], progress: Callable, finished: Callable,
