@@ -179,6 +179,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
     from brdflab.fitting.image_metric import fit_target
     from brdflab.fitting.samples import MAX_DENSITY, samples_of
+    from brdflab.fitting.second_error import describe, second_error
     from brdflab.sources.files import load_source
     from brdflab.io.xmlio import check_savable, save
 
@@ -241,15 +242,15 @@ def cmd_fit(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGINT, previous)
         if show:
             print(file=sys.stderr)
-    other = _other_error(result, source, samples, maps)
-    payload = {**result.as_dict(), **other, "samples": samples.size, "source": str(source_path)}
+    result.second = second_error(result.material, source, samples, maps)
+    payload = {**result.as_dict(), "samples": samples.size, "source": str(source_path)}
     if args.out:
         doc = document_for(source_path, source)
         append_fitting(doc, result)
         save(doc, Path(args.out))
         payload["out"] = args.out
     human = (f"{result.metric} error {result.error:.6g} on {result.scored_on} after {result.iterations} iterations "
-             f"({result.seconds:.2f} s, {result.status}); {_other_error_text(other)}")
+             f"({result.seconds:.2f} s, {result.status}); {describe(result.second)}")
     for w in result.warnings:
         print(f"brdflab fit: warning: {w}", file=sys.stderr)
     if result.status == "no-better-than-zero":
@@ -271,30 +272,6 @@ def _image_maps(args: argparse.Namespace) -> list | None:
     if args.metric != "image":
         raise BRDFLabError("--env applies to --metric image (the maps its renders are lit by)")
     return [load_environment(Path(p)) for p in args.env]
-
-
-def _other_error(result, source, fitted, maps: list | None) -> dict:
-    """Every fit reports both numbers (issue 34): the image error of a sample-metric fit under
-    the image metric's maps, the Ngan error over every sample of an image-metric fit."""
-    from brdflab.fitting.defaults import DEFAULT_METRIC
-    from brdflab.fitting.image_metric import SceneImages
-    from brdflab.fitting.metrics import metric_error
-    from brdflab.fitting.samples import samples_of
-
-    if isinstance(fitted, SceneImages):
-        return {"sample_error": {"metric": DEFAULT_METRIC, "error": metric_error(result.material, samples_of(source),
-                                                                                  DEFAULT_METRIC)}}
-    scene = SceneImages.of_source(source, maps)
-    return {"image_error": {"error": scene.errors([result.material])[0],
-                            "maps": [q.name for q in scene.quadratures]}}
-
-
-def _other_error_text(other: dict) -> str:
-    if "image_error" in other:
-        e = other["image_error"]
-        return f"image error {e['error']:.4g} under {', '.join(e['maps'])}"
-    e = other["sample_error"]
-    return f"{e['metric']} error {e['error']:.6g} on all samples"
 
 
 def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:

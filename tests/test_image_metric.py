@@ -161,7 +161,7 @@ def test_cli_fits_by_the_image_metric_and_every_fit_reports_both_numbers(tmp_pat
     assert image.returncode == 0, image.stderr
     out = json.loads(image.stdout.splitlines()[-1])
     assert out["metric"] == "image" and out["scoredOn"] == "renders under 3 maps" and 0 < out["error"] < 1
-    assert out["sample_error"]["metric"] == "Ngan" and out["sample_error"]["error"] > 0
+    assert out["sampleMetric"] == "Ngan" and out["sampleError"] > 0
     plain = _cli("fit", "example:ward", "--lobes", "Lambertian,CookTorranceGGX", cwd=tmp_path)
     assert plain.returncode == 0, plain.stderr
     said = re.search(r"Ngan error ([0-9.e-]+) on all samples fitted .*; image error ([0-9.e-]+) under "
@@ -169,7 +169,7 @@ def test_cli_fits_by_the_image_metric_and_every_fit_reports_both_numbers(tmp_pat
     assert said, plain.stdout
     # the image fit is the better one in the image, the sample fit by Ngan's error
     assert out["error"] <= float(said.group(2)) * 1.001
-    assert float(said.group(1)) <= out["sample_error"]["error"] * 1.001
+    assert float(said.group(1)) <= out["sampleError"] * 1.001
 
 
 @pytest.mark.parametrize("args, says", [

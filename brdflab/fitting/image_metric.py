@@ -220,12 +220,14 @@ class SceneImages(SampleSet):
         toned = tone(target)
         self.pixel_weight = np.empty_like(target)  # each map counts alike: Σ pw (∛y)² = 1 / maps
         self.linear_weight = np.empty_like(target)  # pw × the tone's slope² at the source (for NNLS)
+        self.tone_floor = np.empty_like(target)  # the slope is taken no steeper than at this radiance
         for m, (s, e) in enumerate(zip(self.bounds[:-1], self.bounds[1:])):
             energy = float((toned[:, s:e] ** 2).sum())
             if not energy > 0.0:
                 raise BRDFLabError(f"the source renders black under {self.quadratures[m].name}: nothing to compare")
             self.pixel_weight[:, s:e] = 1.0 / (len(self.quadratures) * energy)
             floor = TONE_FLOOR * float(target[:, s:e].mean())
+            self.tone_floor[:, s:e] = floor
             slope = (1.0 / 3.0) * np.maximum(target[:, s:e], floor) ** (-2.0 / 3.0)
             self.linear_weight[:, s:e] = self.pixel_weight[:, s:e] * slope ** 2
         self.toned = toned

@@ -204,6 +204,7 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
     from brdflab.errors import BRDFLabError
     from brdflab.fitting.image_metric import fit_target
     from brdflab.fitting.lm import fit
+    from brdflab.fitting.second_error import second_error
 
     last = [0.0]
 
@@ -216,7 +217,9 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
     try:
         samples = fit_target(source, options.metric, sampling)
         messages.put(("started", samples.size))
-        messages.put(("finished", fit(start, samples, options, progress=progress, cancel=cancel)))
+        result = fit(start, samples, options, progress=progress, cancel=cancel)
+        result.second = second_error(result.material, source, samples)
+        messages.put(("finished", result))
     except BRDFLabError as e:
         messages.put(("failed", str(e)))
     except Exception as e:  # a bug in the worker must not take the window down

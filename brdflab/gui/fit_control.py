@@ -10,6 +10,7 @@ from PySide6.QtCore import Qt
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.auto import AutoProgress, Ladder, chosen_fitting
 from brdflab.fitting.lm import FitOptions, FitProgress, FitResult, material_from_lobes
+from brdflab.fitting.second_error import describe
 from brdflab.fitting.stored import fitting_of
 from brdflab.gui.background import AutoFitProcess, FitProcess
 from brdflab.gui.commands import ReplaceFittings
@@ -103,8 +104,9 @@ class FitControl:
     def _fit_finished(self, result: FitResult) -> None:
         if self._store_in_owner(fitting_of(result), "Fit") is None:
             return
+        second = describe(result.second)
         self.fitting.status.setText(f"{result.metric} error {result.error:.6g} after {result.iterations} iterations, "
-                                    f"{result.seconds:.2f} s ({result.status})")
+                                    f"{result.seconds:.2f} s ({result.status})" + (f"; {second}" if second else ""))
 
     def _fit_failed(self, message: str) -> None:
         self._fit_owner = None

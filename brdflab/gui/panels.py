@@ -383,6 +383,15 @@ def refine_job(job: tuple) -> tuple:
     return key, dirs, faces, peak, lobe_tips(sources, shape, dirs)
 
 
+def _second_error(statistics: dict) -> str:
+    """The number a stored fit was not fitted by, for the fits list ('' when it has none)."""
+    if isinstance(statistics.get("imageError"), float):
+        return f" · image {statistics['imageError']:.4g}"
+    if isinstance(statistics.get("sampleError"), float):
+        return f" · {statistics.get('sampleMetric', '')} {statistics['sampleError']:.5g}"
+    return ""
+
+
 def _side_by_side(*widgets: QWidget) -> QHBoxLayout:
     row = QHBoxLayout()
     for w in widgets:
@@ -801,9 +810,10 @@ class FittingPanel(QWidget):
                 lobes = "+".join(f.material.lobe_models())
                 err = "—" if f.error is None else f"{f.error:.5g}"
                 metric = f.statistics.get("metric", "")
+                second = _second_error(f.statistics)
                 summary = energy[k] if energy is not None and k < len(energy) else None
                 mark = f"  ⚠ albedo {max(summary[1]):.3g}" if summary is not None and not summary[0] else ""
-                self.fits.addItem(f"{k}: {lobes}  {metric} {err}{mark}")
+                self.fits.addItem(f"{k}: {lobes}  {metric} {err}{second}{mark}")
             if shown is not None and shown < len(fittings):
                 self.fits.setCurrentRow(shown)
 

@@ -1,0 +1,44 @@
+"""The window fits by the image metric, and its fits list shows both numbers of every fit
+(issue 34, goals 1 and 2): driven as a user would, in a real window under Xvfb."""
+
+import os
+
+import pytest
+
+from test_gui import open_and_wait, window  # noqa: F401  (the fixture)
+
+pytestmark = pytest.mark.skipif(
+    not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") not in ("offscreen",),
+    reason="needs a display (CI runs the suite under xvfb-run)",
+)
+
+
+def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbot, tmp_path):
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+    from brdflab.sources.measured import tabulate, write_merl_binary
+
+    truth = AnalyticMaterial("t", "Linear", 3, [Lobe.create("Lambertian", [0.05, 0.04, 0.03]),
+                                                Lobe.create("Ward", [0.3] * 3, ax=0.15, ay=0.15)])
+    path = tmp_path / "truth.binary"
+    write_merl_binary(tabulate(truth), path)
+    open_and_wait(qtbot, window, window.open_path, path)
+    panel = window.fitting
+    panel.lobes.setCurrentText("Lambertian")  # one lobe: quick, and the two metrics disagree on it
+    for metric in ("image", "Ngan"):
+        panel.metric_box.setCurrentText(metric)
+        panel.fit_button.click()
+        if metric == "image":
+            qtbot.waitUntil(lambda: "pixels of three renders" in panel.status.text() or window._thread is None,
+                            timeout=60000)
+        qtbot.waitUntil(lambda: window._thread is None, timeout=180000)
+    items = [panel.fits.item(k).text() for k in range(panel.fits.count())]
+    window.grab().save(str(tmp_path / "image_metric_fits.png"))
+    assert len(items) == 2, items
+    assert "image" in items[0] and "· Ngan" in items[0], items  # fitted by the image metric, its Ngan error beside
+    assert "Ngan" in items[1] and "· image" in items[1], items
+    image_fit, ngan_fit = (window.workspace.document.fittings[k] for k in range(2))
+    assert image_fit.statistics["metric"] == "image" and ngan_fit.statistics["metric"] == "Ngan"
+    # each fit is the better one by its own number, and the list says both
+    assert image_fit.error <= ngan_fit.statistics["imageError"]
+    assert ngan_fit.error <= image_fit.statistics["sampleError"]
+    assert "; image error" in panel.status.text(), panel.status.text()  # the last fit's line says it too
