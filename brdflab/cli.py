@@ -191,8 +191,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
         if given and not args.auto:
             raise BRDFLabError(f"{option} applies to --auto")
     if args.auto:
-        if args.env:
-            raise BRDFLabError("--env applies to --metric image, which --auto does not take")
+        if args.env or args.metric == "image":
+            return _fit_scene_auto(args, Path(args.source))
         return _fit_auto(args, Path(args.source))
     for option, value, kind in (("--size", args.size, "subset"), ("--density", args.density, "grid")):
         if value is not None and args.samples != kind:
@@ -280,6 +280,7 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
                                       validate_tolerance)
     from brdflab.fitting.lm import FitOptions
     from brdflab.fitting.samples import samples_of
+    from brdflab.fitting.second_error import describe, second_error
     from brdflab.fitting.stored import document_for
     from brdflab.io.xmlio import check_savable, save
     from brdflab.models import get_model
@@ -303,8 +304,11 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
     def progress(p) -> None:  # a line per screen and full fit: a climb takes minutes, and says so as it goes
         print(f"brdflab fit: auto: {p.describe()} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
 
-    ladder = auto_fit(samples_of(source), tolerance, args.metric, {"linear": "Linear", "fixed": "Fixed"}[args.combination],
+    samples = samples_of(source)
+    ladder = auto_fit(samples, tolerance, args.metric, {"linear": "Linear", "fixed": "Fixed"}[args.combination],
                       split=args.size or DEFAULT_SPLIT, models=models, options=options, progress=progress)
+    if ladder.chosen.result is not None:
+        ladder.chosen.result.second = second_error(ladder.chosen.result.material, source, samples)
     chosen = chosen_fit(ladder)
     payload = {**ladder.as_dict(), "source": str(source_path), "fit": chosen.as_dict()}
     if args.out:
@@ -312,19 +316,89 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
         doc.fittings.append(chosen_fitting(ladder))
         save(doc, Path(args.out))
         payload["out"] = args.out
-    lines = [f"Auto ladder ({ladder.metric}; {ladder.fitted_samples} samples fitted, {ladder.held_back_samples} held "
-             f"back; tolerance {tolerance:.1%}; the one-lobe candidates are screened on a quarter of the "
-             f"fitted samples, the held-back error of that screening in brackets):",
-             f"{'':2}{'rung':>4}  {'lobes':<48} {'params':>6} {'fitted':>10} {'held back':>10} {'seconds':>8}"]
+    lines = _ladder_lines(ladder, f"Auto ladder ({ladder.metric}; {ladder.fitted_samples} samples fitted, "
+                                  f"{ladder.held_back_samples} held back; tolerance {tolerance:.1%}; the one-lobe "
+                                  f"candidates are screened on a quarter of the fitted samples, the held-back error "
+                                  f"of that screening in brackets):", "fitted", "held back")
+    lines.append(f"its {ladder.metric} error on {chosen.scored_on}: {chosen.error:.6g} ({chosen.status}); "
+                 f"{describe(chosen.second)}")
+    if args.out:
+        lines.append(f"stored the chosen fit in {args.out}")
+    _emit(args, payload, "\n".join(lines))
+    return 0
+
+
+def _ladder_lines(ladder, title: str, first: str, second: str) -> list[str]:
+    """An Auto ladder as a table: a row per candidate, the pick marked *, and why."""
+    lines = [title, f"{'':2}{'rung':>4}  {'lobes':<48} {'params':>6} {first:>10} {second:>10} {'seconds':>8}"]
     for c in ladder.candidates:
         mark = "*" if c is ladder.chosen else ""
         lobes = "+".join(("Lambertian", *c.lobes))
         errors = (f"{c.error_fitted:>10.5g} {c.error_held_back:>10.5g}" if c.fitted else
-                  f"{'screened out (' + format(c.screen_error, '.4g') + ')':>21}")
+                  f"{'screened out (' + format(c.screen_error, '.4g') + ')':>21}" if c.status == "screened out" else
+                  f"{c.status or 'not fitted':>21}")
         screened = f"  ({c.screen_error:.4g})" if c.fitted and math.isfinite(c.screen_error) else ""
         lines.append(f"{mark:2}{c.rung:>4}  {lobes:<48} {c.parameters:>6} {errors} {c.seconds:>8.2f}{screened}")
     lines.append(f"chosen (*): {ladder.reason}; {ladder.seconds:.1f} s in all")
-    lines.append(f"its {ladder.metric} error on {chosen.scored_on}: {chosen.error:.6g} ({chosen.status})")
+    return lines
+
+
+def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
+    """`brdflab fit SOURCE --auto --env MAP ...` (or `--metric image`): scene-Auto, the fewest
+    lobes whose render of the maps is within --tolerance (image error) of the measurement's."""
+    from brdflab.fitting.auto import chosen_fitting
+    from brdflab.fitting.defaults import DEFAULT_METRIC
+    from brdflab.fitting.image_metric import SceneImages
+    from brdflab.fitting.lm import FitOptions
+    from brdflab.fitting.scene_auto import DEFAULT_SCENE_TOLERANCE, scene_auto, validate_scene_tolerance
+    from brdflab.fitting.second_error import describe, second_error
+    from brdflab.fitting.stored import document_for
+    from brdflab.io.xmlio import check_savable, save
+    from brdflab.models import get_model
+    from brdflab.sources.files import load_source
+
+    tolerance = DEFAULT_SCENE_TOLERANCE if args.tolerance is None else args.tolerance
+    validate_scene_tolerance(tolerance)
+    if args.metric not in ("image", DEFAULT_METRIC):
+        raise BRDFLabError(f"--metric {args.metric}: scene-Auto (--auto --env) judges by the image metric")
+    for option, given in (("--init", args.init), ("--samples", args.samples != "all"), ("--density", args.density),
+                          ("--size", args.size), ("--compression", args.compression != "none")):
+        if given:
+            raise BRDFLabError(f"{option} does not apply to scene-Auto (it fits the scene's renders)")
+    args.metric = "image"
+    maps = _image_maps(args)
+    source = load_source(source_path, fitting=args.fitting, warn=_warner(args))
+    if args.out:
+        check_savable(document_for(source_path, source), args.out)
+    models = _lobe_names(args.models) if args.models else None
+    for name in models or []:
+        get_model(name)
+    t0 = time.perf_counter()
+    scene = SceneImages.of_source(source, maps)
+    print(f"brdflab fit: auto: the scene: {scene.size} pixels under {', '.join(q.name for q in scene.quadratures)} "
+          f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
+
+    def progress(p) -> None:
+        print(f"brdflab fit: auto: {p.describe()} ({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
+
+    options = FitOptions(metric="image", max_iterations=args.max_iterations, time_limit=args.time_limit,
+                         restarts=args.restarts is not False)
+    ladder = scene_auto(scene, tolerance, {"linear": "Linear", "fixed": "Fixed"}[args.combination], models=models,
+                        options=options, progress=progress)
+    chosen = ladder.chosen.result
+    chosen.second = second_error(chosen.material, source, scene)
+    payload = {**ladder.as_dict(), "maps": [q.name for q in scene.quadratures], "source": str(source_path),
+               "fit": chosen.as_dict()}
+    if args.out:
+        doc = document_for(source_path, source)
+        doc.fittings.append(chosen_fitting(ladder))
+        save(doc, Path(args.out))
+        payload["out"] = args.out
+    lines = _ladder_lines(ladder, f"Scene-Auto ladder (image error of the sphere under "
+                                  f"{', '.join(q.name for q in scene.quadratures)}; tolerance {tolerance:.1%}; the "
+                                  f"one-lobe candidates are screened on a quarter of the pixels, their image error "
+                                  f"in brackets):", "fitted", "image")
+    lines.append(f"its image error {chosen.error:.6g} ({chosen.status}); {describe(chosen.second)}")
     if args.out:
         lines.append(f"stored the chosen fit in {args.out}")
     _emit(args, payload, "\n".join(lines))

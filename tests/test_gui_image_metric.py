@@ -42,3 +42,35 @@ def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbo
     assert image_fit.error <= ngan_fit.statistics["imageError"]
     assert ngan_fit.error <= image_fit.statistics["sampleError"]
     assert "; image error" in panel.status.text(), panel.status.text()  # the last fit's line says it too
+
+
+def test_scene_auto_in_the_window_judges_by_the_object_views_map(window, qtbot, tmp_path):
+    """Auto with the image metric: the tolerance becomes an image error (2 %), the ladder is
+    climbed under the object view's map, and the dock and status say what was judged."""
+    from brdflab.material.analytic import AnalyticMaterial, Lobe
+    from brdflab.sources.measured import tabulate, write_merl_binary
+
+    truth = AnalyticMaterial("t", "Linear", 3, [Lobe.create("Lambertian", [0.1, 0.08, 0.05]),
+                                                Lobe.create("Ward", [0.4] * 3, ax=0.2, ay=0.2)])
+    path = tmp_path / "glossy.binary"
+    write_merl_binary(tabulate(truth), path)
+    open_and_wait(qtbot, window, window.open_path, path)
+    panel = window.fitting
+    assert panel.tolerance.value() == 5.0
+    panel.metric_box.setCurrentText("image")
+    assert panel.tolerance.value() == 2.0 and "image error" in panel.tolerance.toolTip()
+    panel.auto_models.setText("BlinnPhong,Ward")
+    panel.auto_button.click()
+    qtbot.waitUntil(lambda: "image" in panel.status.text() and window._thread is not None, timeout=120000)
+    qtbot.waitUntil(lambda: window._thread is None, timeout=300000)
+    window.grab().save(str(tmp_path / "scene_auto.png"))
+    ladder = window.ladder.ladder
+    assert ladder.metric == "image" and ladder.chosen.lobes == ("Ward",), ladder.reason
+    assert ladder.chosen.error_held_back <= 0.02
+    assert window.ladder.summary.text().startswith("Scene-Auto ladder")
+    assert "image error in the scene" in panel.status.text(), panel.status.text()
+    stored = window.workspace.document.fittings[-1]
+    assert stored.statistics["metric"] == "image" and stored.statistics["autoTolerance"] == 0.02
+    assert "· Ngan" in panel.fits.item(panel.fits.count() - 1).text()  # the pick reports both numbers too
+    panel.metric_box.setCurrentText("Ngan")
+    assert panel.tolerance.value() == 5.0  # an untouched tolerance follows the metric back

@@ -177,9 +177,7 @@ def test_cli_fits_by_the_image_metric_and_every_fit_reports_both_numbers(tmp_pat
     (["--metric", "image", "--samples", "subset"], "--samples subset"),
     (["--env", "missing.exr"], "--env applies to --metric image"),
     (["--metric", "image", "--compression", "cbrt"], "tone curve"),
-    (["--metric", "image", "--auto"], "Auto judges its rungs on held-back samples"),
 ])
 def test_cli_bad_image_metric_options_exit_2_with_one_line(tmp_path, args, says):
-    lobes = [] if "--auto" in args else ["--lobes", "Lambertian"]
-    run = _cli("fit", "example:ward", *lobes, *args, cwd=tmp_path)
+    run = _cli("fit", "example:ward", "--lobes", "Lambertian", *args, cwd=tmp_path)
     assert run.returncode == 2 and says in run.stderr and len(run.stderr.strip().splitlines()) == 1, run.stderr

@@ -134,10 +134,11 @@ class AutoProgress:
     best: str  # the lowest held-back error fully fitted so far
     best_error: float
     rung: int = 0  # the candidate's rung: lobes after the Lambertian
+    measure: str = "held back"  # what `error` is: the held-back error, or (scene-Auto) the image error
 
     def describe(self) -> str:
         return (f"rung {self.rung}, candidate {self.step} of about {self.expected}: {self.stage} {self.candidate} "
-                f"(held back {self.error:.4g}); best so far {self.best} {self.best_error:.4g}")
+                f"({self.measure} {self.error:.4g}); best so far {self.best} {self.best_error:.4g}")
 
 
 class _Cancelled(Exception):
@@ -153,8 +154,8 @@ class _Climb:
     full fit `progress` hears how far the climb is."""
 
     def __init__(self, progress: Callable[[AutoProgress], None] | None, cancel: Cancel | None,
-                 rungs: int, models: int, exhaustive: bool) -> None:
-        self.progress, self.cancel = progress, cancel
+                 rungs: int, models: int, exhaustive: bool, measure: str = "held back") -> None:
+        self.progress, self.cancel, self.measure = progress, cancel, measure
         self.models = models
         self.screened_rungs = 0 if exhaustive else min(rungs, SCREENED_RUNGS)
         self.rungs_left = rungs
@@ -179,7 +180,7 @@ class _Climb:
         if self.progress is not None and self.best is not None:
             error = candidate.error_held_back if stage == "fitted" else candidate.screen_error
             self.progress(AutoProgress(self.step, max(self.expected, self.step), stage, _label(candidate), error,
-                                       _label(self.best), self.best.error_held_back, candidate.rung))
+                                       _label(self.best), self.best.error_held_back, candidate.rung, self.measure))
 
 
 def _number(x: float) -> float | None:
@@ -441,7 +442,10 @@ def _finish(chosen: Candidate, fitted: SampleSet, held_back: SampleSet, options:
 
 
 def chosen_fit(ladder: Ladder) -> FitResult:
-    """The pick's fit, its error over every sample of the source (not only the ones Auto fitted)."""
+    """The pick's fit, its error over every sample of the source (not only the ones Auto fitted);
+    scene-Auto's (metric image) as fitted, over the scene's renders."""
+    if ladder.metric == "image":
+        return ladder.chosen.result
     result = replace(ladder.chosen.result, error=ladder.error)
     result.scored_on = f"{ladder.samples} samples (all of the source; Auto fitted {ladder.fitted_samples})"
     return result
@@ -451,6 +455,9 @@ def chosen_fitting(ladder: Ladder) -> Fitting:
     """The <Fitting> that stores Auto's pick (the command line's --out and the window store
     the same): its fit, plus its error on the held-back samples and the tolerance."""
     fitting = fitting_of(chosen_fit(ladder))
+    if ladder.metric == "image":
+        fitting.statistics.update({"autoTolerance": ladder.tolerance, "autoScene": "image error within the tolerance"})
+        return fitting
     fitting.statistics.update({"heldBackError": ladder.chosen.error_held_back,
                                "heldBackSamples": ladder.held_back_samples, "autoTolerance": ladder.tolerance})
     return fitting

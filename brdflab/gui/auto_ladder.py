@@ -12,6 +12,7 @@ from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QLabel, QTableWidg
 from brdflab.fitting.auto import Candidate, Ladder
 
 COLUMNS = ("rung", "lobes", "parameters", "fitted error", "held-back error", "screen (held back)", "seconds", "status")
+SCENE_COLUMNS = ("rung", "lobes", "parameters", "fitted error", "image error", "screen (image)", "seconds", "status")
 CHOSEN_COLOR = "#d8f0d0"
 EMPTY_TEXT = "No Auto run for this document yet: press Auto in the Fitting panel."
 
@@ -65,10 +66,14 @@ class AutoLadderPanel(QWidget):
             self.reason.setText("")
             return
         fitted = sum(c.fitted for c in ladder.candidates)
+        scene = ladder.metric == "image"
+        self.table.setHorizontalHeaderLabels(list(SCENE_COLUMNS if scene else COLUMNS))
+        judged = (f"image error of the sphere's {ladder.fitted_samples} pixels under the object view's map; an image "
+                  f"error within" if scene else f"{ladder.metric} error on {ladder.fitted_samples} fitted and "
+                  f"{ladder.held_back_samples} held-back samples; tolerance")
         self.summary.setText(
-            f"Auto ladder: {len(ladder.candidates)} candidates, {fitted} fully fitted; {ladder.metric} error on "
-            f"{ladder.fitted_samples} fitted and {ladder.held_back_samples} held-back samples; tolerance "
-            f"{ladder.tolerance:.1%}; {ladder.seconds:.1f} s. The chosen row is marked ★.")
+            f"{'Scene-' if scene else ''}Auto ladder: {len(ladder.candidates)} candidates, {fitted} fully fitted; "
+            f"{judged} {ladder.tolerance:.1%}; {ladder.seconds:.1f} s. The chosen row is marked ★.")
         self.reason.setText("Chosen: " + ladder.reason)
         self.table.setRowCount(len(ladder.candidates))
         for row, candidate in enumerate(ladder.candidates):

@@ -320,12 +320,26 @@ def _run_auto(source, settings: dict, messages, cancel) -> None:
     them, then the ladder (fitting/auto.py), reporting after every screen and full fit."""
     from brdflab.errors import BRDFLabError
     from brdflab.fitting.auto import auto_fit
+    from brdflab.fitting.image_metric import SceneImages
     from brdflab.fitting.samples import samples_of
+    from brdflab.fitting.scene_auto import scene_auto
+    from brdflab.fitting.second_error import second_error
 
+    report = lambda p: messages.put(("progress", p))
     try:
-        samples = samples_of(source)
-        messages.put(("started", samples.size))
-        ladder = auto_fit(samples, progress=lambda p: messages.put(("progress", p)), cancel=cancel, **settings)
+        if settings["metric"] == "image":  # scene-Auto: judged by renders under the window's map
+            scene = SceneImages.of_source(source, settings["maps"])
+            messages.put(("started", scene.size))
+            ladder = scene_auto(scene, settings["tolerance"], settings["combination"], settings["models"],
+                                progress=report, cancel=cancel)
+        else:
+            samples = samples_of(source)
+            messages.put(("started", samples.size))
+            keys = ("tolerance", "metric", "combination", "split", "models")
+            ladder = auto_fit(samples, progress=report, cancel=cancel, **{k: settings[k] for k in keys})
+        if ladder.chosen.result is not None:  # the pick reports both numbers, as every fit does
+            ladder.chosen.result.second = second_error(ladder.chosen.result.material, source,
+                                                       scene if settings["metric"] == "image" else samples)
         messages.put(("finished", ladder))
     except BRDFLabError as e:
         messages.put(("failed", str(e)))
@@ -336,7 +350,8 @@ def _run_auto(source, settings: dict, messages, cancel) -> None:
 class AutoFitProcess(ChildJob):
     """One Auto run: `progress` gives AutoProgress after each candidate, `finished` the
     Ladder (the ladder so far, and its pick among the fully fitted, when cancelled).
-    `settings`: auto_fit's keyword arguments (tolerance, metric, combination, split, models)."""
+    `settings`: auto_fit's keyword arguments (tolerance, metric, combination, split, models) and
+    `maps`, the environment maps scene-Auto renders under when the metric is the image metric."""
 
     what = "Auto fit"
 

@@ -126,9 +126,15 @@ class FitControl:
         except BRDFLabError as e:
             self.show_error(f"Auto models: {e}")
             return
-        self._start_worker(AutoFitProcess(source, settings, self),
-                           lambda n: f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…",
-                           self._auto_progress, self._auto_finished, "starting Auto…")
+        if settings["metric"] == "image":  # scene-Auto: the object view's map, as the user sees it
+            renderer = getattr(self.object_view, "renderer", None)
+            environment = renderer.environment if renderer is not None else None
+            settings = {**settings, "maps": None if environment is None else [environment]}
+            started = lambda n: f"scene-Auto on {n} pixels of the sphere under the object view's map…"
+        else:
+            started = lambda n: f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…"
+        self._start_worker(AutoFitProcess(source, settings, self), started, self._auto_progress,
+                           self._auto_finished, "starting Auto…")
 
     def _auto_progress(self, p: AutoProgress) -> None:
         if self._fit_owner is not self.workspace:
@@ -137,7 +143,7 @@ class FitControl:
         bar.setRange(0, p.expected)
         bar.setValue(p.step)
         bar.setFormat("candidate %v of about %m")
-        self.fitting.status.setText(f"Auto: {p.stage} {p.candidate}, held back {p.error:.4g} "
+        self.fitting.status.setText(f"Auto: {p.stage} {p.candidate}, {p.measure} {p.error:.4g} "
                                     f"(best so far {p.best_error:.4g})")
 
     def _auto_finished(self, ladder: Ladder) -> None:
@@ -149,9 +155,9 @@ class FitControl:
         self.show_ladder()
         chosen = ladder.chosen
         stopped = " (cancelled)" if ladder.reason.startswith("cancelled") else ""
-        self.fitting.status.setText(f"Auto chose {'+'.join(('Lambertian', *chosen.lobes))}: held-back "
-                                    f"{ladder.metric} error {chosen.error_held_back:.5g}, {ladder.seconds:.1f} s"
-                                    f"{stopped}; see the Auto ladder")
+        measure = "image error in the scene" if ladder.metric == "image" else f"held-back {ladder.metric} error"
+        self.fitting.status.setText(f"Auto chose {'+'.join(('Lambertian', *chosen.lobes))}: {measure} "
+                                    f"{chosen.error_held_back:.5g}, {ladder.seconds:.1f} s{stopped}; see the Auto ladder")
 
     def _show_own_ladder(self) -> None:
         """The ladder dock shows the last Auto run of the shown document only."""

@@ -43,6 +43,7 @@ from brdflab.lighting.auto import DEFAULT_TOLERANCE as LIGHTING_TOLERANCE
 from brdflab.material.albedo import energy_check
 from brdflab.fitting.auto import DEFAULT_SPLIT
 from brdflab.fitting.auto import DEFAULT_TOLERANCE as FIT_TOLERANCE
+from brdflab.fitting.scene_auto import DEFAULT_SCENE_TOLERANCE
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULTS_WHY
 from brdflab.fitting.diagnosis import above_one
 from brdflab.fitting.lm import METRICS
@@ -383,6 +384,12 @@ def refine_job(job: tuple) -> tuple:
     return key, dirs, faces, peak, lobe_tips(sources, shape, dirs)
 
 
+SAMPLE_AUTO_TIP = "Auto: a rung of lobes must improve the held-back error by more than this (relative) to be climbed"
+SCENE_AUTO_TIP = ("scene-Auto (the image metric): the fewest lobes whose render of the sphere under the object "
+                  "view's map is within this image error of the measurement's (2 %: about one just-noticeable "
+                  "difference)")
+
+
 def _second_error(statistics: dict) -> str:
     """The number a stored fit was not fitted by, for the fits list ('' when it has none)."""
     if isinstance(statistics.get("imageError"), float):
@@ -696,8 +703,8 @@ class FittingPanel(QWidget):
                                     "samples and scoring the other half; stop when more lobes no longer pay")
         self.tolerance = QDoubleSpinBox(decimals=1, minimum=0.0, maximum=99.9, value=100 * FIT_TOLERANCE,
                                         singleStep=0.5, suffix=" %")
-        self.tolerance.setToolTip("Auto: a rung of lobes must improve the held-back error by more than this "
-                                  "(relative) to be climbed")
+        self.tolerance.setToolTip(SAMPLE_AUTO_TIP)
+        self.metric_box.currentTextChanged.connect(self._metric_changed)
         self.auto_models = QLineEdit()
         self.auto_models.setPlaceholderText("all models")
         self.auto_models.setToolTip("Auto: the lobe models to try, comma-separated (empty: all of "
@@ -763,6 +770,15 @@ class FittingPanel(QWidget):
         lobes = [s.strip() for s in self.lobes.currentText().split(",") if s.strip()]
         self.fit_requested.emit(lobes, self.strategy.currentText(), self.metric_box.currentText(),
                                 self.sample_kind.currentText(), self.sample_size.value())
+
+    def _metric_changed(self, metric: str) -> None:
+        """Auto's tolerance means a relative gain on held-back samples, or (the image metric:
+        scene-Auto) an image error in the object view's scene: each has its own default,
+        and an untouched value follows the metric."""
+        scene = metric == "image"
+        if self.tolerance.value() == 100 * (FIT_TOLERANCE if scene else DEFAULT_SCENE_TOLERANCE):
+            self.tolerance.setValue(100 * (DEFAULT_SCENE_TOLERANCE if scene else FIT_TOLERANCE))
+        self.tolerance.setToolTip(SCENE_AUTO_TIP if scene else SAMPLE_AUTO_TIP)
 
     def auto_settings(self) -> dict:
         """auto_fit's settings from the panel (models: None for all)."""
