@@ -28,7 +28,7 @@ def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbo
         panel.metric_box.setCurrentText(metric)
         panel.fit_button.click()
         if metric == "image":
-            qtbot.waitUntil(lambda: "pixels of three renders" in panel.status.text() or window._thread is None,
+            qtbot.waitUntil(lambda: "under the object view's map" in panel.status.text() or window._thread is None,
                             timeout=60000)
         qtbot.waitUntil(lambda: window._thread is None, timeout=180000)
     items = [panel.fits.item(k).text() for k in range(panel.fits.count())]
@@ -38,6 +38,7 @@ def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbo
     assert "Ngan" in items[1] and "· image" in items[1], items
     image_fit, ngan_fit = (window.workspace.document.fittings[k] for k in range(2))
     assert image_fit.statistics["metric"] == "image" and ngan_fit.statistics["metric"] == "Ngan"
+    assert image_fit.statistics["scoredOn"].startswith("renders under 1 map (")  # the object view's map
     # each fit is the better one by its own number, and the list says both
     assert image_fit.error <= ngan_fit.statistics["imageError"]
     assert ngan_fit.error <= image_fit.statistics["sampleError"]

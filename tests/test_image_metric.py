@@ -121,7 +121,7 @@ def test_an_image_fit_finds_a_known_material_and_reports_its_metric():
     scene = SceneImages.of_source(SOURCE, small_maps("sun-high-small", "room-one-window"), **SMALL)
     start = material_from_lobes(["Lambertian", "Ward"], "Linear", 3)
     result = fit(start, scene, FitOptions(metric="image", restarts=False))
-    assert result.metric == "image" and result.scored_on == "renders under 2 maps"
+    assert result.metric == "image" and result.scored_on == "renders under 2 maps (sun-high-small, room-one-window)"
     assert result.error < 2e-3 and result.error == pytest.approx(metric_errors([result.material], scene, "image")[0])
     assert result.material.lobes[1].params["ax"] == pytest.approx(0.25, rel=0.05)
 
@@ -160,7 +160,7 @@ def test_cli_fits_by_the_image_metric_and_every_fit_reports_both_numbers(tmp_pat
                  cwd=tmp_path)
     assert image.returncode == 0, image.stderr
     out = json.loads(image.stdout.splitlines()[-1])
-    assert out["metric"] == "image" and out["scoredOn"] == "renders under 3 maps" and 0 < out["error"] < 1
+    assert out["metric"] == "image" and out["scoredOn"].startswith("renders under 3 maps (") and 0 < out["error"] < 1
     assert out["sampleMetric"] == "Ngan" and out["sampleError"] > 0
     plain = _cli("fit", "example:ward", "--lobes", "Lambertian,CookTorranceGGX", cwd=tmp_path)
     assert plain.returncode == 0, plain.stderr

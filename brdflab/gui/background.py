@@ -215,7 +215,8 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
             messages.put(("progress", p))
 
     try:
-        samples = fit_target(source, options.metric, sampling)
+        sampling = dict(sampling)
+        samples = fit_target(source, options.metric, sampling, sampling.pop("maps", None))
         messages.put(("started", samples.size))
         result = fit(start, samples, options, progress=progress, cancel=cancel)
         result.second = second_error(result.material, source, samples)

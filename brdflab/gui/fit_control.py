@@ -48,11 +48,21 @@ class FitControl:
             self.show_error(str(e))
             return
         options = FitOptions(metric=metric)
+        sampling = {"kind": kind, "size": size, "density": 45}
+        if metric == "image":  # judged under the object view's map, as the user sees the material
+            sampling = {"maps": self._object_view_maps()}
         # the samples are drawn and the fit runs in a worker process: the window stays live
-        self._start_worker(FitProcess(start, source, {"kind": kind, "size": size, "density": 45}, options, self),
-                           lambda n: f"fitting {n} pixels of three renders…" if metric == "image" else
+        self._start_worker(FitProcess(start, source, sampling, options, self),
+                           lambda n: f"fitting {n} pixels of the sphere under the object view's map…" if metric == "image" else
                            f"fitting {n} samples…", self._fit_progress, self._fit_finished,
                            "starting the fit…")
+
+    def _object_view_maps(self) -> list | None:
+        """The object view's environment map, which the image metric renders under in the
+        window (None before OpenGL starts: the metric's default maps)."""
+        renderer = getattr(self.object_view, "renderer", None)
+        environment = renderer.environment if renderer is not None else None
+        return None if environment is None else [environment]
 
     def _start_worker(self, thread, started: Callable[[int], str], progress: Callable, finished: Callable,
                       starting: str) -> None:
@@ -127,9 +137,7 @@ class FitControl:
             self.show_error(f"Auto models: {e}")
             return
         if settings["metric"] == "image":  # scene-Auto: the object view's map, as the user sees it
-            renderer = getattr(self.object_view, "renderer", None)
-            environment = renderer.environment if renderer is not None else None
-            settings = {**settings, "maps": None if environment is None else [environment]}
+            settings = {**settings, "maps": self._object_view_maps()}
             started = lambda n: f"scene-Auto on {n} pixels of the sphere under the object view's map…"
         else:
             started = lambda n: f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…"
