@@ -181,3 +181,19 @@ def test_cli_fits_by_the_image_metric_and_every_fit_reports_both_numbers(tmp_pat
 def test_cli_bad_image_metric_options_exit_2_with_one_line(tmp_path, args, says):
     run = _cli("fit", "example:ward", "--lobes", "Lambertian", *args, cwd=tmp_path)
     assert run.returncode == 2 and says in run.stderr and len(run.stderr.strip().splitlines()) == 1, run.stderr
+
+
+def test_a_one_channel_source_is_rendered_in_luminance_and_fitted():
+    grey = AnalyticMaterial("g", "Linear", 1, [Lobe(get_model("Lambertian"), {}, [0.3]),
+                                              Lobe(get_model("Ward"), {"ax": 0.3, "ay": 0.3}, [0.2])])
+    env = spec("sun-mid-large").build(128, 64)
+    scene = SceneImages.of_source(grey, [env], **SMALL)
+    assert scene.target.shape == (1, scene.size)
+    # a grey BRDF under a coloured map: the luminance of the RGB render
+    rgb = lobes(("Lambertian", {}, (0.3,) * 3), ("Ward", {"ax": 0.3, "ay": 0.3}, (0.2,) * 3))
+    q = scene.quadratures[0]
+    from brdflab.lighting.env_sampling import LUMINANCE
+    np.testing.assert_allclose(scene.target[0], LUMINANCE @ q.render(rgb.evaluate, 3), rtol=1e-10)
+    result = fit(material_from_lobes(["Lambertian", "Ward"], "Linear", 1), scene,
+                 FitOptions(metric="image", restarts=False))
+    assert result.error < 2e-3

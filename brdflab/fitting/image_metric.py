@@ -74,17 +74,18 @@ class MapQuadrature:
     def render(self, evaluate: Callable[[np.ndarray, np.ndarray], np.ndarray], channels: int) -> np.ndarray:
         """(channels, pixels): the view under this map of a BRDF given by `evaluate`."""
         out = np.zeros((channels, self.pixels))
+        weight = self.weights(channels)
         for s in range(0, len(self.pixel), PAIR_BLOCK):
             e = s + PAIR_BLOCK
             f = np.asarray(evaluate(self.wi[s:e], self.wo[s:e]), float).reshape(len(self.pixel[s:e]), -1)
             for c in range(channels):
-                out[c] += np.bincount(self.pixel[s:e], f[:, min(c, f.shape[1] - 1)] * self.channel_weight(s, e, c, channels),
+                out[c] += np.bincount(self.pixel[s:e], f[:, min(c, f.shape[1] - 1)] * weight[s:e, c],
                                       minlength=self.pixels)
         return out
 
-    def channel_weight(self, s: int, e: int, c: int, channels: int) -> np.ndarray:
-        """The pairs' weights for channel c of a `channels`-channel BRDF (luminance for one)."""
-        return self.weight[s:e, c] if channels == 3 else self.weight[s:e] @ LUMINANCE
+    def weights(self, channels: int) -> np.ndarray:
+        """(pairs, channels): the pairs' weights for a `channels`-channel BRDF (luminance for one)."""
+        return self.weight if channels == 3 else (self.weight @ LUMINANCE)[:, None]
 
     def pick(self, keep: np.ndarray) -> tuple["MapQuadrature", np.ndarray]:
         """The quadrature of the pixels where `keep` (view, view) is set, and which of the
@@ -272,17 +273,13 @@ class SceneImages(SampleSet):
         """(C, P): a BRDF's images under every map, end to end."""
         return np.concatenate([q.render(evaluate, self.n_channels) for q in self.quadratures], axis=1)
 
-    def images(self, values: np.ndarray) -> list[np.ndarray]:
-        """(C, P) → one (view, view, C) image per map."""
-        return [q.image(values[:, s:e]) for q, s, e in zip(self.quadratures, self.bounds[:-1], self.bounds[1:])]
-
     def blocks(self) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
         """(first pixel, pixel index, wi, wo, weight) of every block of pairs, for the fitter."""
         for q, first in zip(self.quadratures, self.bounds[:-1]):
+            weight = q.weights(self.n_channels)
             for s in range(0, len(q.pixel), PAIR_BLOCK):
                 e = s + PAIR_BLOCK
-                weight = q.weight[s:e] if self.n_channels == 3 else (q.weight[s:e] @ LUMINANCE)[:, None]
-                yield int(first), q.pixel[s:e], q.wi[s:e], q.wo[s:e], weight
+                yield int(first), q.pixel[s:e], q.wi[s:e], q.wo[s:e], weight[s:e]
 
     def block_images(self, block, values: np.ndarray) -> np.ndarray:
         """(C, R, P) images of R rows of BRDF values (K, R, pairs) at one block's pairs;
@@ -310,12 +307,6 @@ class SceneImages(SampleSet):
         """The image error of each material (None: a zero BRDF, which scores 1)."""
         return [self.error_of_images(np.zeros_like(self.target) if m is None else self.render(m.evaluate))
                 for m in materials]
-
-    def per_map_errors(self, material) -> list[float]:
-        """The image error under each map alone (a user's view of where a fit fails)."""
-        r = self.toned_residuals(self.render(material.evaluate)).reshape(self.n_channels, -1) ** 2
-        n = len(self.quadratures)
-        return [math.sqrt(n * float(r[:, s:e].sum())) for s, e in zip(self.bounds[:-1], self.bounds[1:])]
 
     def lobe_shares(self, material, contribution: Callable) -> np.ndarray:
         """Each lobe's share of the material's images (weighted as the fitter's linear
