@@ -396,7 +396,7 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
         payload["out"] = args.out
     lines = _ladder_lines(ladder, f"Scene-Auto ladder (image error of the sphere under "
                                   f"{', '.join(q.name for q in scene.quadratures)}; tolerance {tolerance:.1%}; the "
-                                  f"one-lobe candidates are screened on a quarter of the pixels, their image error "
+                                  f"one-lobe candidates are screened on a sixteenth of the pixels, their image error "
                                   f"in brackets):", "fitted", "image")
     lines.append(f"its image error {chosen.error:.6g} ({chosen.status}); {describe(chosen.second)}")
     if args.out:

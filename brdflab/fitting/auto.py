@@ -285,13 +285,14 @@ def screen_margin(tolerance: float) -> float:
 
 
 def _screen(rung: list[Candidate], base: Candidate, fitted: SampleSet, held_back: SampleSet, combination: str,
-            options: FitOptions, tolerance: float, climb: _Climb) -> list[Candidate]:
-    """Fit every candidate quickly (a quarter of the fitted samples, no restarts, few
+            options: FitOptions, tolerance: float, climb: _Climb, share: int = 4,
+            smallest: int = SCREEN_MIN_SAMPLES) -> list[Candidate]:
+    """Fit every candidate quickly (1/`share` of the fitted samples, no restarts, few
     steps: fit time is mostly restarts and steps, not samples); the ones worth a full fit:
     those whose held-back error there is within `screen_margin` of the best, at least
     the SCREEN_KEEP best, and every one whose screen is inconclusive (no better than the
     base's own quick refit)."""
-    small = fitted.subset(max(SCREEN_MIN_SAMPLES, fitted.size // 4), seed=SPLIT_SEED)
+    small = fitted.subset(max(smallest, fitted.size // share), seed=SPLIT_SEED)
     quick = replace(options, restarts=False, max_iterations=min(options.max_iterations, SCREEN_ITERATIONS))
     for c in rung:
         result, held = _fit(c, base, small, held_back, combination, quick, climb)

@@ -4,7 +4,7 @@ of the measurement's (issue 34, goal 4).
 Auto (auto.py) climbs until more lobes stop paying on held-back samples, and takes Lambertian
 + 3 lobes on almost every material: the samples reward every lobe. A user sees a scene; this
 climbs the same ladder (the Lambertian alone, + one lobe of each model, + a second, …; the
-first rung screened on a quarter of the pixels) but judges every candidate by its image error
+first rung screened on a sixteenth of the pixels) but judges every candidate by its image error
 (image_metric.py) in the scene, the user's maps, and stops at the first rung where a candidate
 is within the tolerance: of those, the one with the fewest parameters (then the lowest error).
 Within a rung, candidates are fitted cheapest first, and none with more parameters than one
@@ -30,6 +30,7 @@ from brdflab.fitting.lm import FitOptions
 from brdflab.models import model_names
 
 DEFAULT_SCENE_TOLERANCE = 0.02
+SCREEN_SHARE = 16  # the first rung is screened on every fourth pixel's row and column
 
 
 def validate_scene_tolerance(tolerance: float) -> None:
@@ -66,7 +67,7 @@ def scene_auto(scene: SceneImages, tolerance: float = DEFAULT_SCENE_TOLERANCE, c
                 break
             rung = sorted((_candidate(rung_index, (*base.lobes, m), combination, channels) for m in names),
                           key=lambda c: (c.parameters, c.evaluation_ns, c.lobes))
-            full = _screen(rung, base, scene, scene, combination, options, tolerance, climb) \
+            full = _screen(rung, base, scene, scene, combination, options, tolerance, climb, SCREEN_SHARE, 0) \
                 if rung_index <= SCREENED_RUNGS else rung
             climb.screened(len(full))
             fitted: list[Candidate] = []
