@@ -249,16 +249,16 @@ class SceneImages(SampleSet):
 
     def subset(self, size: int, seed: int = 0) -> "SceneImages":
         """The pixels of every `step`-th row and column (step 2 for a quarter of `size` or
-        fewer, …), with their pairs and target: the same renders, sampled more coarsely."""
-        step = max(1, int(math.sqrt(self.size / max(size, 1))))
-        if step == 1:
-            return self
-        keep = np.zeros((self.quadratures[0].view,) * 2, bool)
-        keep[::step, ::step] = True
-        picked = [q.pick(keep) for q in self.quadratures]
-        target = np.concatenate([self.target[:, s:e][:, chosen] for (_, chosen), s, e
-                                 in zip(picked, self.bounds[:-1], self.bounds[1:])], axis=1)
-        return SceneImages([q for q, _ in picked], target)
+        fewer, …; a smaller step where a map would keep no lit pixel), with their pairs and
+        target: the same renders, sampled more coarsely."""
+        for step in range(max(1, int(math.sqrt(self.size / max(size, 1)))), 1, -1):
+            keep = np.zeros((self.quadratures[0].view,) * 2, bool)
+            keep[step // 2::step, step // 2::step] = True
+            picked = [q.pick(keep) for q in self.quadratures]
+            parts = [self.target[:, s:e][:, chosen] for (_, chosen), s, e in zip(picked, self.bounds[:-1], self.bounds[1:])]
+            if all(part.max(initial=0.0) > 0.0 for part in parts):  # every map keeps lit pixels
+                return SceneImages([q for q, _ in picked], np.concatenate(parts, axis=1))
+        return self
 
     def digest(self) -> str:
         h = hashlib.sha256()
