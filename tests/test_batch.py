@@ -12,6 +12,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -21,6 +22,7 @@ from brdflab.cli import main
 from brdflab.fitting.auto import auto_fit
 from brdflab.fitting.lm import FitOptions, fit, material_from_lobes
 from brdflab.fitting.metrics import metric_error
+from brdflab.fitting.second_error import image_error
 from brdflab.fitting.samples import samples_of
 from brdflab.io.xmlio import load
 from brdflab.sources.files import load_source
@@ -89,6 +91,10 @@ def test_local_cluster_batch_equals_fits_alone_and_bad_file_is_a_failed_row(tmp_
         alone = fit(material_from_lobes(row.lobes.split(","), "Linear", 3), samples_of(read_slice(data / f"{row.material}.slice")),
                     FitOptions(metric="L2"))
         assert row.error == pytest.approx(alone.error, rel=1e-6), row
+        # its image error beside it, the same as the image metric gives the fit (issue 34 goal 2)
+        assert row.image_error == pytest.approx(image_error(alone.material, read_slice(data / f"{row.material}.slice")),
+                                                rel=1e-6), row
+    assert bad["image_error"].isna().all()
     parquet = pd.read_parquet(tmp_path / "results" / "results.parquet")
     assert sorted(parquet["error"].dropna()) == pytest.approx(sorted(ok["error"]))
 
@@ -261,3 +267,14 @@ def test_two_batches_into_one_folder_keep_each_others_rows(tmp_path):
     first.flush()
     assert sorted(ResultsTable.load(tmp_path).rows) == ["a", "b"]
     assert len(pd.read_csv(tmp_path / "results.csv")) == 2
+
+
+def test_a_table_saved_before_the_image_error_column_still_loads(tmp_path):
+    from brdflab.batch.table import COLUMNS, ResultsTable
+
+    old = [c for c in COLUMNS if c != "image_error"]
+    row = {c: "" for c in old} | {"key": "k1", "error": "0.25", "pid": "1", "seconds": "1", "iterations": "3",
+                                  "evaluations": "4", "status": "converged"}
+    pd.DataFrame([row], columns=old).to_csv(tmp_path / "results.csv", index=False)
+    table = ResultsTable.load(tmp_path)
+    assert table.rows["k1"]["error"] == 0.25 and np.isnan(table.rows["k1"]["image_error"])

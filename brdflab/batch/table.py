@@ -13,8 +13,9 @@ import pandas as pd
 from brdflab.errors import BRDFLabError
 from brdflab.io.atomic import atomic_write
 
-COLUMNS = ["source", "material", "lobes", "combination", "metric", "error", "parameters", "seconds", "iterations",
-           "evaluations", "status", "message", "worker", "pid", "sha256", "options", "key"]
+COLUMNS = ["source", "material", "lobes", "combination", "metric", "error", "image_error", "parameters", "seconds",
+           "iterations", "evaluations", "status", "message", "worker", "pid", "sha256", "options", "key"]
+ADDED_LATER = {"image_error"}  # a table saved before it has no such column: read as unknown (NaN)
 TEXT_COLUMNS = ["source", "material", "lobes", "combination", "metric", "parameters", "status", "message", "worker",
                 "sha256", "options", "key"]
 CSV_NAME, PARQUET_NAME = "results.csv", "results.parquet"
@@ -70,10 +71,11 @@ def _saved_rows(folder: Path) -> dict[str, dict]:
         return {}
     try:
         frame = pd.read_csv(path, dtype={c: str for c in TEXT_COLUMNS}, keep_default_na=False)
-        missing = set(COLUMNS) - set(frame.columns)
+        missing = set(COLUMNS) - set(frame.columns) - ADDED_LATER
         if missing:
             raise ValueError(f"missing columns {', '.join(sorted(missing))}")
-        frame["error"] = pd.to_numeric(frame["error"], errors="coerce")
+        for column in ("error", *ADDED_LATER):
+            frame[column] = pd.to_numeric(frame[column], errors="coerce") if column in frame else float("nan")
     except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as e:
         raise BRDFLabError(f"not a batch results table: {e}", path) from None
     return {row["key"]: row for row in frame[COLUMNS].to_dict("records")}

@@ -166,6 +166,7 @@ def run_task(task: FitTask) -> TaskOutcome:
     """Load the source, fit the lobe set (or climb Auto's ladder), and return the row; its
     error is on all samples of the source."""
     restore_malloc_reuse()
+    from brdflab.fitting.second_error import image_error
     from brdflab.sources.files import is_xml, load_source
 
     t0 = time.perf_counter()
@@ -184,6 +185,10 @@ def run_task(task: FitTask) -> TaskOutcome:
         row.update(error=float("nan"), parameters="", seconds=time.perf_counter() - t0, iterations=0,
                    evaluations=0, status="failed", message=one_line(e))
         return TaskOutcome(row)
+    try:  # every fit reports both numbers: the image error beside the sample metric's
+        row["image_error"] = float(image_error(result.material, source))
+    except BRDFLabError:  # a source the image metric cannot render (not 1 or 3 channels, black)
+        row["image_error"] = float("nan")
     row.update(error=float(error), parameters=json.dumps(result.material.describe()["lobes"]),
                seconds=float(seconds), iterations=int(result.iterations),
                evaluations=int(result.evaluations), status=result.status, message=message)

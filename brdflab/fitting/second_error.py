@@ -24,6 +24,11 @@ def second_error(material, source, fitted: SampleSet, maps: Sequence[Environment
     return {"imageError": scene.errors([material])[0], "imageMaps": ",".join(q.name for q in scene.quadratures)}
 
 
+def image_error(material, source, maps: Sequence[EnvironmentMap] | None = None) -> float:
+    """The image error of `material` against `source` under `maps` (default: the metric's three)."""
+    return SceneImages.of_source(source, maps).errors([material])[0]
+
+
 def describe(second: dict) -> str:
     """One phrase for a human line: 'image error 0.1157 under A, B, C' or 'Ngan error … on all samples'."""
     if "imageError" in second:
