@@ -148,6 +148,7 @@ def test_a_second_export_in_any_format_does_not_fit_again(tmp_path):
     said = [w for w in json.loads(first.stdout.splitlines()[-1])["warnings"] if "fitted to Principled" in w]
     assert said and "on the way out" in said[0]
     error = said[0].split("Ngan error ")[1].split(",")[0]
+    image = said[0].split("; image error ")[1].split(" ")[0]  # both numbers, the image error kept with the fit
     weighed = sorted(cache_folder("export_losses").glob("*.json"))
     assert weighed  # the losses every format says, weighed while the fit was made
     for fmt, name in (("mtlx", "w.mtlx"), ("gltf", "w.gltf")):
@@ -155,6 +156,7 @@ def test_a_second_export_in_any_format_does_not_fit_again(tmp_path):
         assert again.returncode == 0, again.stderr
         (line,) = [w for w in json.loads(again.stdout.splitlines()[-1])["warnings"] if "fitted to Principled" in w]
         assert "by an earlier export (read from the cache)" in line and f"Ngan error {error}," in line
+        assert f"; image error {image} under sun-high-small" in line
     assert len(list(cache_folder("fits").glob("*.json"))) == 1
     assert sorted(cache_folder("export_losses").glob("*.json")) == weighed  # read back, none weighed again
 

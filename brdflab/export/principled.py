@@ -86,16 +86,19 @@ def as_principled(source, fmt: str, cancel=None) -> PrincipledExport:
     from brdflab.fitting.fit_cache import fit_once
     from brdflab.fitting.lm import material_from_lobes
     from brdflab.fitting.samples import samples_of
+    from brdflab.fitting.second_error import describe, second_error
 
     samples = samples_of(source)
-    result, cached = fit_once(material_from_lobes(["Principled"], "Linear", samples.n_channels), samples, cancel=cancel)
+    result, cached = fit_once(material_from_lobes(["Principled"], "Linear", samples.n_channels), samples, cancel=cancel,
+                              second=lambda r: second_error(r.material, source, samples))
     relative = result.error / result.zero_error if result.zero_error > 0 else 0.0
     what = "measured data" if not isinstance(source, AnalyticMaterial) else (
         "+".join(l.model.name for l in source.lobes) + " lobes")
     when = "fitted to Principled by an earlier export (read from the cache)" if cached else \
         "fitted to Principled on the way out"
     warning = (f"{fmt}: the source ({what}) is not a principled material; it was {when}: "
-               f"Ngan error {result.error:.4g}, {100 * relative:.1f} % of the source's own size (a black BRDF's error)")
+               f"Ngan error {result.error:.4g}, {100 * relative:.1f} % of the source's own size (a black BRDF's error)"
+               + (f"; {describe(result.second)}" if result.second else ""))
     return PrincipledExport(dict(result.material.lobes[0].params), exact=False, error=result.error,
                             relative_error=relative, warnings=[warning], fitted_now=not cached)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Callable
 
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.lm import STOPPED, FitOptions, FitResult, fit
@@ -58,8 +59,9 @@ def _read(start: AnalyticMaterial, options: FitOptions, key: str) -> FitResult |
         error, zero = float(entry["error"]), float(entry["zero_error"])
         if not (math.isfinite(error) and math.isfinite(zero)):
             return None
+        second = {str(k): (float(v) if isinstance(v, (int, float)) else str(v)) for k, v in entry.get("second", {}).items()}
         return FitResult(material, error, options.metric, 0.0, int(entry["iterations"]), 0, str(entry["status"]),
-                         str(entry["message"]), [], list(entry["warnings"]), zero, str(entry["scored_on"]))
+                         str(entry["message"]), [], list(entry["warnings"]), zero, str(entry["scored_on"]), second)
     except (ValueError, KeyError, TypeError, AttributeError, BRDFLabError):
         return None
 
@@ -68,20 +70,26 @@ def _write(key: str, result: FitResult) -> None:
     entry = {"lobes": [{"model": l.model.name, "params": l.params, "scale": list(l.scale)} for l in result.material.lobes],
              "error": result.error, "zero_error": result.zero_error, "iterations": result.iterations,
              "status": result.status, "message": result.message, "warnings": result.warnings,
-             "scored_on": result.scored_on, "seconds": result.seconds}
+             "scored_on": result.scored_on, "seconds": result.seconds, "second": result.second}
     write_entry(KIND, key, entry)
 
 
 def fit_once(start: AnalyticMaterial, samples: SampleSet, options: FitOptions | None = None,
-             cancel=None) -> tuple[FitResult, bool]:
+             cancel=None, second: Callable[[FitResult], dict] | None = None) -> tuple[FitResult, bool]:
     """`fit(start, samples, options)`, from the cache when the same fit ran before; and whether
-    it came from the cache."""
+    it came from the cache. `second`: the fit's other number (second_error.py), kept with it
+    (an entry written before without it gets it once)."""
     options = options or FitOptions()
     key = fit_key(start, samples, options)
     cached = _read(start, options, key)
     if cached is not None:
+        if second is not None and not cached.second:
+            cached.second = second(cached)
+            _write(key, cached)
         return cached, True
     result = fit(start, samples, options, cancel=cancel)
+    if second is not None:
+        result.second = second(result)
     if result.status not in STOPPED:
         _write(key, result)
     return result, False
