@@ -197,3 +197,28 @@ def test_a_one_channel_source_is_rendered_in_luminance_and_fitted():
     result = fit(material_from_lobes(["Lambertian", "Ward"], "Linear", 1), scene,
                  FitOptions(metric="image", restarts=False))
     assert result.error < 2e-3
+
+
+def test_the_metric_equals_the_one_computed_from_the_labs_own_renders():
+    """The operator's renders against the lab's OpenGL renderer (reference view, MIS 4,096
+    samples per pixel, llvmpipe), and the image error computed from those renders instead."""
+    from brdflab.render.context import create_context
+    from brdflab.render.object_view import ObjectRenderer, RenderSettings
+
+    maps = small_maps("room-one-window", "sun-mid-large", size=(256, 128))
+    scene = SceneImages.of_source(SOURCE, maps)
+    renderer = ObjectRenderer(create_context())
+    squares = []
+    for env, q in zip(maps, scene.quadratures):
+        renderer.set_environment(env)
+        images = []
+        for material in (SOURCE, GLOSSY):
+            renderer.set_source(material)
+            gl = renderer.render(RenderSettings(mode="mis", width=q.view, height=q.view, samples=4096,
+                                                reference_view=True))[..., :3]
+            ours = q.image(q.render(material.evaluate, 3))
+            assert relative_rmse(gl, ours, q.inside) < 0.01
+            images.append(gl[q.inside])
+        y, a = images
+        squares.append(((np.cbrt(a) - np.cbrt(y)) ** 2).sum() / (np.cbrt(y) ** 2).sum())
+    assert scene.errors([GLOSSY])[0] == pytest.approx(math.sqrt(np.mean(squares)), rel=0.02)
