@@ -276,13 +276,12 @@ def _image_maps(args: argparse.Namespace) -> list | None:
 
 def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
     """`brdflab fit SOURCE --auto`: the ladder as a table (or JSON); --out stores the pick."""
-    from brdflab.fitting.auto import (DEFAULT_SPLIT, DEFAULT_TOLERANCE, auto_fit, chosen_fit, chosen_fitting,
-                                      validate_tolerance)
+    from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE, auto_fit, chosen_fit, validate_tolerance
     from brdflab.fitting.lm import FitOptions
     from brdflab.fitting.samples import samples_of
     from brdflab.fitting.second_error import describe, second_error
     from brdflab.fitting.stored import document_for
-    from brdflab.io.xmlio import check_savable, save
+    from brdflab.io.xmlio import check_savable
     from brdflab.models import get_model
     from brdflab.sources.files import load_source
 
@@ -311,11 +310,7 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
         ladder.chosen.result.second = second_error(ladder.chosen.result.material, source, samples)
     chosen = chosen_fit(ladder)
     payload = {**ladder.as_dict(), "source": str(source_path), "fit": chosen.as_dict()}
-    if args.out:
-        doc = document_for(source_path, source)
-        doc.fittings.append(chosen_fitting(ladder))
-        save(doc, Path(args.out))
-        payload["out"] = args.out
+    _store_pick(args, source_path, source, ladder, payload)
     lines = _ladder_lines(ladder, f"Auto ladder ({ladder.metric}; {ladder.fitted_samples} samples fitted, "
                                   f"{ladder.held_back_samples} held back; tolerance {tolerance:.1%}; the one-lobe "
                                   f"candidates are screened on a quarter of the fitted samples, the held-back error "
@@ -326,6 +321,19 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
         lines.append(f"stored the chosen fit in {args.out}")
     _emit(args, payload, "\n".join(lines))
     return 0
+
+
+def _store_pick(args: argparse.Namespace, source_path: Path, source, ladder, payload: dict) -> None:
+    """--out: the source's XML with Auto's pick as a new <Fitting> (said in `payload`)."""
+    from brdflab.fitting.auto import chosen_fitting
+    from brdflab.fitting.stored import document_for
+    from brdflab.io.xmlio import save
+
+    if args.out:
+        doc = document_for(source_path, source)
+        doc.fittings.append(chosen_fitting(ladder))
+        save(doc, Path(args.out))
+        payload["out"] = args.out
 
 
 def _ladder_lines(ladder, title: str, first: str, second: str) -> list[str]:
@@ -346,14 +354,13 @@ def _ladder_lines(ladder, title: str, first: str, second: str) -> list[str]:
 def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
     """`brdflab fit SOURCE --auto --env MAP ...` (or `--metric image`): scene-Auto, the fewest
     lobes whose render of the maps is within --tolerance (image error) of the measurement's."""
-    from brdflab.fitting.auto import chosen_fitting
     from brdflab.fitting.defaults import DEFAULT_METRIC
     from brdflab.fitting.image_metric import SceneImages
     from brdflab.fitting.lm import FitOptions
     from brdflab.fitting.scene_auto import DEFAULT_SCENE_TOLERANCE, scene_auto, validate_scene_tolerance
     from brdflab.fitting.second_error import describe, second_error
     from brdflab.fitting.stored import document_for
-    from brdflab.io.xmlio import check_savable, save
+    from brdflab.io.xmlio import check_savable
     from brdflab.models import get_model
     from brdflab.sources.files import load_source
 
@@ -389,11 +396,7 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
     chosen.second = second_error(chosen.material, source, scene)
     payload = {**ladder.as_dict(), "maps": [q.name for q in scene.quadratures], "source": str(source_path),
                "fit": chosen.as_dict()}
-    if args.out:
-        doc = document_for(source_path, source)
-        doc.fittings.append(chosen_fitting(ladder))
-        save(doc, Path(args.out))
-        payload["out"] = args.out
+    _store_pick(args, source_path, source, ladder, payload)
     lines = _ladder_lines(ladder, f"Scene-Auto ladder (image error of the sphere under "
                                   f"{', '.join(q.name for q in scene.quadratures)}; tolerance {tolerance:.1%}; the "
                                   f"one-lobe candidates are screened on a sixteenth of the pixels, their image error "

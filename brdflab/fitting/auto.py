@@ -345,6 +345,16 @@ def _improved(rung_index: int, full: list[Candidate], chosen: Candidate, toleran
                   f"{_label(pick)} has the fewest parameters within the tolerance of its best ({_label(best)})")
 
 
+def mark_cancelled(stop: _Cancelled, rung: list[Candidate], done: list[Candidate]) -> None:
+    """A climb stopped in `rung`: the fit it interrupted is cancelled, the rung's others not
+    reached, and the rung joins the candidates `done`."""
+    if stop.candidate is not None:
+        stop.candidate.status = "cancelled"
+    for c in rung:
+        c.status = c.status or "not reached"
+    done += rung
+
+
 def _cancelled(rung: list[Candidate], chosen: Candidate, stopped: bool, tolerance: float,
                metric: str) -> tuple[Candidate, str]:
     """The pick of a cancelled climb, among the candidates fully fitted, and why; `rung` is
@@ -411,11 +421,7 @@ def auto_fit(samples: SampleSet, tolerance: float = DEFAULT_TOLERANCE, metric: s
                 reason = (f"rung {rung_index} improves the held-back {metric} error by {gain:.1%} at best "
                           f"({_label(best)}), not more than the tolerance {tolerance:.1%}: {_label(chosen)} is enough")
     except _Cancelled as stop:
-        if stop.candidate is not None:
-            stop.candidate.status = "cancelled"
-        for c in rung:
-            c.status = c.status or "not reached"
-        done += rung
+        mark_cancelled(stop, rung, done)
         chosen, reason = _cancelled(rung, chosen, stopped, tolerance, metric)
     if exhaustive:
         reason = "exhaustive run (every rung climbed, every candidate fully fitted): " + reason

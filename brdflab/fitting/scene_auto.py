@@ -24,7 +24,8 @@ from typing import Callable
 
 from brdflab.errors import BRDFLabError
 from brdflab.fitting.auto import (MAX_LOBES, SCREENED_RUNGS, AutoProgress, Cancel, Candidate, Ladder, _Cancelled,
-                                  _candidate, _Climb, _fit_fully, _label, _screen, validate_models)
+                                  _candidate, _Climb, _fit_fully, _label, _screen, mark_cancelled,
+                                  validate_models)
 from brdflab.fitting.image_metric import SceneImages
 from brdflab.fitting.lm import FitOptions
 from brdflab.models import model_names
@@ -94,11 +95,7 @@ def scene_auto(scene: SceneImages, tolerance: float = DEFAULT_SCENE_TOLERANCE, c
             reason = (f"no candidate is within {tolerance:.1%} after {rung_index} lobe(s) on the Lambertian; the "
                       f"best, {_label(chosen)}, renders the scene with image error {chosen.error_held_back:.4g}")
     except _Cancelled as stop:
-        if stop.candidate is not None:
-            stop.candidate.status = "cancelled"
-        for c in rung:
-            c.status = c.status or "not reached"
-        done += rung
+        mark_cancelled(stop, rung, done)
         fully = [c for c in done if c.fitted]
         chosen = min(fully, key=lambda c: (c.error_held_back > tolerance, c.parameters if c.error_held_back
                                            <= tolerance else 0, c.error_held_back)) if fully else lambertian
