@@ -784,9 +784,11 @@ def build_parser() -> argparse.ArgumentParser:
     which.add_argument("--auto", action="store_true",
                        help="climb a ladder of candidates (Lambertian, + one lobe of each model, two, three) "
                             "and keep the cheapest that more lobes no longer improve by more than --tolerance "
-                            "on held-back samples; prints the ladder")
+                            "on held-back samples; with --env MAP or --metric image (scene-Auto): the fewest "
+                            "lobes whose render is within --tolerance image error; prints the ladder")
     p.add_argument("--tolerance", type=float, default=None,
-                   help="with --auto: the relative held-back error gain a rung must beat (default 0.05)")
+                   help="with --auto: the relative held-back error gain a rung must beat (default 0.05); "
+                        "scene-Auto: the image error to reach (default 0.02)")
     p.add_argument("--models", help="with --auto: the lobe models the ladder tries, comma-separated names or model "
                                     "files (default: all); a folder in the list adds its model files, as --models DIR "
                                     "does on other commands")
