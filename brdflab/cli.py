@@ -174,7 +174,7 @@ def _load_model_folders(args: argparse.Namespace) -> None:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
-    from brdflab.fitting.lm import FitOptions, fit
+    from brdflab.fitting.lm import STOPPED, FitOptions, fit
     from brdflab.io.atomic import check_writable
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
     from brdflab.fitting.image_metric import fit_target
@@ -242,7 +242,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGINT, previous)
         if show:
             print(file=sys.stderr)
-    result.second = second_error(result.material, source, samples, maps)
+    if result.status not in STOPPED:  # a fit stopped by --time-limit or Ctrl-C ends now, without it
+        result.second = second_error(result.material, source, samples, maps)
     payload = {**result.as_dict(), "samples": samples.size, "source": str(source_path)}
     if args.out:
         doc = document_for(source_path, source)
@@ -250,7 +251,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
         save(doc, Path(args.out))
         payload["out"] = args.out
     human = (f"{result.metric} error {result.error:.6g} on {result.scored_on} after {result.iterations} iterations "
-             f"({result.seconds:.2f} s, {result.status}); {describe(result.second)}")
+             f"({result.seconds:.2f} s, {result.status})" + (f"; {describe(result.second)}" if result.second else ""))
     for w in result.warnings:
         print(f"brdflab fit: warning: {w}", file=sys.stderr)
     if result.status == "no-better-than-zero":

@@ -222,3 +222,11 @@ def test_the_metric_equals_the_one_computed_from_the_labs_own_renders():
         y, a = images
         squares.append(((np.cbrt(a) - np.cbrt(y)) ** 2).sum() / (np.cbrt(y) ** 2).sum())
     assert scene.errors([GLOSSY])[0] == pytest.approx(math.sqrt(np.mean(squares)), rel=0.02)
+
+
+def test_a_fit_stopped_by_its_time_limit_ends_without_the_second_number(tmp_path):
+    run = _cli("fit", "example:ward", "--lobes", "Lambertian,CookTorranceGGX,CookTorranceGGX", "--time-limit", "0.01",
+               "--json", cwd=tmp_path)
+    out = json.loads(run.stdout.splitlines()[-1])
+    assert run.returncode == 0 and out["status"] == "time-limit"
+    assert "imageError" not in out  # the limit is the user's: no render after it
