@@ -203,7 +203,7 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
 
     from brdflab.errors import BRDFLabError
     from brdflab.fitting.image_metric import fit_target
-    from brdflab.fitting.lm import fit
+    from brdflab.fitting.lm import STOPPED, fit
     from brdflab.fitting.second_error import second_error
 
     last = [0.0]
@@ -219,7 +219,8 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
         samples = fit_target(source, options.metric, sampling, sampling.pop("maps", None))
         messages.put(("started", samples.size))
         result = fit(start, samples, options, progress=progress, cancel=cancel)
-        result.second = second_error(result.material, source, samples)
+        if result.status not in STOPPED:  # stopped: Stop answers now, without a render
+            result.second = second_error(result.material, source, samples)
         messages.put(("finished", result))
     except BRDFLabError as e:
         messages.put(("failed", str(e)))
@@ -338,7 +339,7 @@ def _run_auto(source, settings: dict, messages, cancel) -> None:
             messages.put(("started", samples.size))
             keys = ("tolerance", "metric", "combination", "split", "models")
             ladder = auto_fit(samples, progress=report, cancel=cancel, **{k: settings[k] for k in keys})
-        if ladder.chosen.result is not None:  # the pick reports both numbers, as every fit does
+        if ladder.chosen.result is not None and not cancel.is_set():  # the pick reports both numbers
             ladder.chosen.result.second = second_error(ladder.chosen.result.material, source,
                                                        scene if settings["metric"] == "image" else samples)
         messages.put(("finished", ladder))
