@@ -13,15 +13,19 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbot, tmp_path):
+def open_table(window, qtbot, path, diffuse: list[float], specular: float, roughness: float) -> None:
+    """Open in the window a MERL table of Lambertian + isotropic Ward, tabulated to `path`."""
     from brdflab.material.analytic import AnalyticMaterial, Lobe
     from brdflab.sources.measured import tabulate, write_merl_binary
 
-    truth = AnalyticMaterial("t", "Linear", 3, [Lobe.create("Lambertian", [0.05, 0.04, 0.03]),
-                                                Lobe.create("Ward", [0.3] * 3, ax=0.15, ay=0.15)])
-    path = tmp_path / "truth.binary"
+    truth = AnalyticMaterial("t", "Linear", 3, [Lobe.create("Lambertian", diffuse),
+                                                Lobe.create("Ward", [specular] * 3, ax=roughness, ay=roughness)])
     write_merl_binary(tabulate(truth), path)
     open_and_wait(qtbot, window, window.open_path, path)
+
+
+def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbot, tmp_path):
+    open_table(window, qtbot, tmp_path / "truth.binary", [0.05, 0.04, 0.03], 0.3, 0.15)
     panel = window.fitting
     panel.lobes.setCurrentText("Lambertian")  # one lobe: quick, and the two metrics disagree on it
     for metric in ("image", "Ngan"):
@@ -48,14 +52,7 @@ def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbo
 def test_scene_auto_in_the_window_judges_by_the_object_views_map(window, qtbot, tmp_path):
     """Auto with the image metric: the tolerance becomes an image error (2 %), the ladder is
     climbed under the object view's map, and the dock and status say what was judged."""
-    from brdflab.material.analytic import AnalyticMaterial, Lobe
-    from brdflab.sources.measured import tabulate, write_merl_binary
-
-    truth = AnalyticMaterial("t", "Linear", 3, [Lobe.create("Lambertian", [0.1, 0.08, 0.05]),
-                                                Lobe.create("Ward", [0.4] * 3, ax=0.2, ay=0.2)])
-    path = tmp_path / "glossy.binary"
-    write_merl_binary(tabulate(truth), path)
-    open_and_wait(qtbot, window, window.open_path, path)
+    open_table(window, qtbot, tmp_path / "glossy.binary", [0.1, 0.08, 0.05], 0.4, 0.2)
     panel = window.fitting
     assert panel.tolerance.value() == 5.0
     panel.metric_box.setCurrentText("image")
