@@ -7,7 +7,9 @@ Per (example material, map): `choose_lighting` as `brdflab render --mode auto` c
 first (the map never seen: no prefiltered stack in memory or in the user's cache), in a new
 process that has seen the map before (the memory emptied), and again (in memory); then the
 chosen setting's frame at 128² timed on this machine's renderer (llvmpipe; a tiny frame first
-compiles the program, as `study.lighting.frame_ms` does). Maps: the default map as the CLI reads
+compiles the program, as `study.lighting.frame_ms` does), and per map the time to build its
+prefiltered stack (what the first prefiltered frame of a map adds; since Auto predicts from a
+material's own layers, choosing no longer builds it). Maps: the default map as the CLI reads
 it, and two synthetic maps (a tuning interior and a held-out sunrise with a tiny sun). Run it
 against another tree (`PYTHONPATH=…`) in the same session to compare before and after.
 """
@@ -60,6 +62,8 @@ def main() -> None:
     rows = []
     for map_name, env in maps().items():
         renderer.set_environment(env)
+        build = timed(lambda: prefilter.build_stack(env))  # what a map's first prefiltered frame adds
+        print(f"{map_name}: its prefiltered stack builds in {build:.2f} s", flush=True)
         for name in MATERIALS:
             material = load(ROOT / "materials" / f"{name}.xml").material
             prefilter._CACHE.clear()
@@ -78,7 +82,7 @@ def main() -> None:
             bound = max(1.0, 5e-3 * ms)
             rows.append({"map": map_name, "material": name, "choice": f"{choice.mode} {choice.setting or ''}".strip(),
                          "first_s": first, "seen_s": seen, "warm_s": warm, "frame_ms": ms, "bound_s": bound,
-                         "weighed": len(choice.candidates)})
+                         "weighed": len(choice.candidates), "stack_build_s": build})
             print(f"{map_name:<16} {name:<28} {rows[-1]['choice']:<12} first {first:5.2f} s  map seen {seen:5.2f} s  "
                   f"again {warm:5.2f} s  "
                   f"frame {ms:7.1f} ms  bound {bound:4.2f} s  weighed {len(choice.candidates)}", flush=True)
