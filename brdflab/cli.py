@@ -190,6 +190,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     for option, given in (("--tolerance", args.tolerance is not None), ("--models", args.models)):
         if given and not args.auto:
             raise BRDFLabError(f"{option} applies to --auto")
+    if args.mesh and not (args.metric == "image" or (args.auto and args.env)):
+        raise BRDFLabError("--mesh applies to --metric image and scene-Auto (the renders are judged on it)")
     if args.auto:
         if args.env or args.metric == "image":
             return _fit_scene_auto(args, Path(args.source))
@@ -212,7 +214,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if args.metric == "image" and args.samples != "all":
         raise BRDFLabError(f"--samples {args.samples} applies to sample metrics; --metric image fits renders")
     maps = _image_maps(args)
-    samples = fit_target(source, args.metric, {"kind": args.samples, "size": args.size, "density": args.density}, maps)
+    samples = fit_target(source, args.metric, {"kind": args.samples, "size": args.size, "density": args.density}, maps,
+                         _image_view(args))
     score_on = samples_of(source) if args.samples != "all" else None
     restarts = args.restarts if args.restarts is not None else not args.init  # a stored fit is continued
     options = FitOptions(metric=args.metric, compression=args.compression, max_iterations=args.max_iterations,
@@ -273,6 +276,29 @@ def _image_maps(args: argparse.Namespace) -> list | None:
     if args.metric != "image":
         raise BRDFLabError("--env applies to --metric image (the maps its renders are lit by)")
     return [load_environment(Path(p)) for p in args.env]
+
+
+def _image_view(args: argparse.Namespace):
+    """`fit --mesh FILE`: the image metric's view, the mesh's pixels as `brdflab render --view
+    orbit --mesh FILE` draws it (its camera; the view sized so that the mesh covers as many
+    pixels as the reference sphere does at the metric's VIEW × VIEW); else the reference view's
+    size."""
+    from brdflab.fitting.image_metric import VIEW, sphere_frames
+
+    if not args.mesh:
+        return VIEW
+    if args.metric != "image":
+        raise BRDFLabError("--mesh applies to --metric image and scene-Auto (the renders are judged on it)")
+    from brdflab.io.mesh import load_mesh
+    from brdflab.render.camera import OrbitCamera
+    from brdflab.render.context import create_context
+    from brdflab.render.gbuffer import frames_covering
+
+    mesh = load_mesh(args.mesh)
+    frames = frames_covering(create_context(), mesh, OrbitCamera(), int(sphere_frames(VIEW).inside.sum()))
+    if not frames.inside.any():
+        raise BRDFLabError(f"{args.mesh}: the mesh covers no pixel of the view")
+    return frames
 
 
 def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
@@ -382,8 +408,10 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
     for name in models or []:
         get_model(name)
     t0 = time.perf_counter()
-    scene = SceneImages.of_source(source, maps)
-    print(f"brdflab fit: auto: the scene: {scene.size} pixels under {', '.join(q.name for q in scene.quadratures)} "
+    view = _image_view(args)
+    scene = SceneImages.of_source(source, maps, view)
+    seen = f"{view.name} ({args.mesh})" if args.mesh else "the reference sphere"
+    print(f"brdflab fit: auto: the scene: {scene.size} pixels of {seen} under {', '.join(q.name for q in scene.quadratures)} "
           f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
 
     def progress(p) -> None:
@@ -395,7 +423,8 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
                         options=options, progress=progress)
     chosen = ladder.chosen.result
     chosen.second = second_error(chosen.material, source, scene)
-    payload = {**ladder.as_dict(), "maps": [q.name for q in scene.quadratures], "source": str(source_path),
+    payload = {**ladder.as_dict(), "maps": [q.name for q in scene.quadratures], "mesh": args.mesh,
+               "source": str(source_path),
                "fit": chosen.as_dict()}
     _store_pick(args, source_path, source, ladder, payload)
     lines = _ladder_lines(ladder, f"Scene-Auto ladder (image error of the sphere under "
@@ -800,6 +829,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--env", action="append", default=[],
                    help="with --metric image: a map the renders are lit by (repeat for several; default: "
                         "three synthetic maps, a sky with a sun, a room with a window, a studio)")
+    p.add_argument("--mesh", help="with --metric image (and scene-Auto): judge the renders on this mesh (OBJ, PLY, "
+                                  "STL, OFF, GLB) as `brdflab render --view orbit --mesh FILE` shows it, instead of "
+                                  "the reference sphere")
     p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"], help="of the values fitted")
     p.add_argument("--init", type=material_path, help="XML file whose last fitting (or material) is the initial guess")
     p.add_argument("--init-fitting", type=int_in(0, 1_000_000), default=None, help="use this stored fitting of --init")

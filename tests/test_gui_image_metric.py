@@ -42,7 +42,8 @@ def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbo
     assert "Ngan" in items[1] and "· image" in items[1], items
     image_fit, ngan_fit = (window.workspace.document.fittings[k] for k in range(2))
     assert image_fit.statistics["metric"] == "image" and ngan_fit.statistics["metric"] == "Ngan"
-    assert image_fit.statistics["scoredOn"].startswith("renders under 1 map (")  # the object view's map
+    # judged on what the object view shows: its mesh (Spot), camera and map
+    assert image_fit.statistics["scoredOn"].startswith("renders of spot.obj under 1 map ("), image_fit.statistics
     # each fit is the better one by its own number, and the list says both
     assert image_fit.error <= ngan_fit.statistics["imageError"]
     assert ngan_fit.error <= image_fit.statistics["sampleError"]
@@ -51,7 +52,7 @@ def test_the_window_fits_by_the_image_metric_and_lists_both_numbers(window, qtbo
 
 def test_scene_auto_in_the_window_judges_by_the_object_views_map(window, qtbot, tmp_path):
     """Auto with the image metric: the tolerance becomes an image error (2 %), the ladder is
-    climbed under the object view's map, and the dock and status say what was judged."""
+    climbed on the object view's mesh under its map, and the dock and status say what was judged."""
     open_table(window, qtbot, tmp_path / "glossy.binary", [0.1, 0.08, 0.05], 0.4, 0.2)
     panel = window.fitting
     assert panel.tolerance.value() == 5.0
@@ -66,9 +67,11 @@ def test_scene_auto_in_the_window_judges_by_the_object_views_map(window, qtbot, 
     assert ladder.metric == "image" and ladder.chosen.lobes == ("Ward",), ladder.reason
     assert ladder.chosen.error_held_back <= 0.02
     assert window.ladder.summary.text().startswith("Scene-Auto ladder")
+    assert "image error of spot.obj's" in window.ladder.summary.text(), window.ladder.summary.text()
     assert "image error in the scene" in panel.status.text(), panel.status.text()
     stored = window.workspace.document.fittings[-1]
     assert stored.statistics["metric"] == "image" and stored.statistics["autoTolerance"] == 0.02
+    assert stored.statistics["scoredOn"].startswith("renders of spot.obj under 1 map ("), stored.statistics
     assert "· Ngan" in panel.fits.item(panel.fits.count() - 1).text()  # the pick reports both numbers too
     panel.metric_box.setCurrentText("Ngan")
     assert panel.tolerance.value() == 5.0  # an untouched tolerance follows the metric back

@@ -92,8 +92,29 @@ def test_cli_scene_auto_under_the_users_map_prints_progress_and_stores_the_pick(
     assert fittings[-1]["statistics"]["metric"] == "image" and fittings[-1]["statistics"]["autoTolerance"] == 0.02
 
 
+def test_cli_scene_auto_on_a_mesh_judges_the_meshs_pixels(tmp_path):
+    """`--mesh`: the scene is the mesh as `render --view orbit` shows it, covering about as many
+    pixels as the reference sphere (812); the pick is judged there and the payload names it."""
+    env = tmp_path / "sky.exr"
+    write_exr(env, spec("sun-mid-large").build(128, 64).data)
+    mesh = ROOT / "resources" / "meshes" / "spot.obj"
+    run = _cli("fit", "example:ward", "--auto", "--env", str(env), "--mesh", str(mesh), "--models", "BlinnPhong,Ward",
+               "--json", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    payload = json.loads(run.stdout.splitlines()[-1])
+    assert payload["mesh"] == str(mesh) and payload["maps"] == ["sky"] and payload["seen"] == "spot.obj"
+    chosen = payload["candidates"][payload["chosen"]]
+    assert chosen["lobes"] == ["Ward"] and chosen["error_held_back"] <= 0.02
+    scene_line = run.stderr.splitlines()[0]
+    assert "pixels of spot.obj" in scene_line, scene_line
+    pixels = int(scene_line.split("the scene: ")[1].split()[0])
+    assert 0.85 * 812 <= pixels <= 1.3 * 812
+
+
 @pytest.mark.parametrize("args, says", [
     (["--env", "missing.exr"], "missing.exr"),
+    (["--metric", "image", "--mesh", "missing.obj"], "missing.obj"),
+    (["--mesh", str(ROOT / "resources" / "meshes" / "spot.obj")], "--mesh applies to --metric image"),
     (["--metric", "image", "--tolerance", "0"], "--tolerance 0"),
     (["--metric", "image", "--samples", "subset"], "--samples"),
 ])

@@ -107,9 +107,11 @@ class Ladder:
     cpu_seconds: float
     error: float = math.nan  # the pick's error over every sample of the source (the whole hemisphere)
     samples: int = 0  # how many that is
+    seen: str = ""  # scene-Auto: what its pixels show (the sphere, or a mesh by name)
 
     def as_dict(self) -> dict:
-        return {"tolerance": self.tolerance, "metric": self.metric, "fitted_samples": self.fitted_samples,
+        return {"tolerance": self.tolerance, "metric": self.metric, **({"seen": self.seen} if self.seen else {}),
+                "fitted_samples": self.fitted_samples,
                 "held_back_samples": self.held_back_samples, "error": _number(self.error), "samples": self.samples,
                 "seconds": round(self.seconds, 4),
                 "cpu_seconds": round(self.cpu_seconds, 4), "chosen": self.candidates.index(self.chosen), "reason": self.reason,

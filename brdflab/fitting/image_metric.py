@@ -60,8 +60,7 @@ class MapQuadrature:
     Σ weight[k, c] f(wi[k], wo[k])_c over the pairs k with pixel[k] = p."""
 
     name: str
-    view: int
-    inside: np.ndarray  # (view, view) bool: the pixels on the sphere, in row-major order
+    inside: np.ndarray  # (H, W) bool: the pixels on the object, in row-major order
     pixel: np.ndarray  # (pairs,) index among the inside pixels
     wi: np.ndarray  # (pairs, 3) local frame
     wo: np.ndarray  # (pairs, 3)
@@ -88,17 +87,17 @@ class MapQuadrature:
         return self.weight if channels == 3 else (self.weight @ LUMINANCE)[:, None]
 
     def pick(self, keep: np.ndarray) -> tuple["MapQuadrature", np.ndarray]:
-        """The quadrature of the pixels where `keep` (view, view) is set, and which of the
+        """The quadrature of the pixels where `keep` (H, W) is set, and which of the
         present pixels those are (a bool per pixel)."""
         chosen = keep[self.inside]
         index = np.cumsum(chosen) - 1
         pairs = chosen[self.pixel]
-        return MapQuadrature(self.name, self.view, self.inside & keep, index[self.pixel[pairs]], self.wi[pairs],
+        return MapQuadrature(self.name, self.inside & keep, index[self.pixel[pairs]], self.wi[pairs],
                              self.wo[pairs], self.weight[pairs]), chosen
 
     def image(self, values: np.ndarray) -> np.ndarray:
-        """(channels, pixels) → (view, view, channels), 0 off the sphere."""
-        out = np.zeros((self.view, self.view, values.shape[0]))
+        """(channels, pixels) → (H, W, channels), 0 off the object."""
+        out = np.zeros((*self.inside.shape, values.shape[0]))
         out[self.inside] = values.T
         return out
 
@@ -154,21 +153,43 @@ def _energy(env: EnvironmentMap) -> tuple[np.ndarray, np.ndarray]:
     return d.reshape(-1, 3), (env.data * solid[:, :, None]).reshape(-1, 3).astype(float)
 
 
-def map_quadrature(env: EnvironmentMap, view: int = VIEW, dim_width: int = DIM_WIDTH,
-                   fine_width: int = FINE_WIDTH, cap_degrees: float = CAP_DEGREES) -> MapQuadrature:
-    """The pairs and weights of the reference view under `env`: the bright texels for every
-    pixel; of the rest, per pixel, the coarse texels that reach within `cap_degrees` of its
-    mirror direction (where a sharp lobe is) are replaced by their fine ones, the others
-    taken whole. Every texel at its centre, with its exact solid angle."""
+@dataclass(frozen=True)
+class PixelFrames:
+    """What a render needs of a view's pixels: which pixels show the object, and at each
+    (row-major) its shading frame and the direction towards the camera, in world space.
+    The reference view's (`sphere_frames`) or a mesh's seen by a camera (the render layer's
+    `render.gbuffer.mesh_frames`, rasterised as the object view draws it)."""
+
+    inside: np.ndarray  # (H, W) bool
+    normal: np.ndarray  # (pixels, 3)
+    tangent: np.ndarray  # (pixels, 3)
+    bitangent: np.ndarray  # (pixels, 3)
+    view: np.ndarray  # (pixels, 3): towards the camera
+    name: str = "sphere"
+
+
+def sphere_frames(view: int = VIEW) -> PixelFrames:
+    """The reference view at view × view pixels: the unit sphere, wo = +Z everywhere."""
     sphere = sphere_view(view, view)
     n, t, b = (a[sphere.inside] for a in (sphere.normal, sphere.tangent, sphere.bitangent))
+    return PixelFrames(sphere.inside, n, t, b, np.broadcast_to(np.array([0.0, 0.0, 1.0]), n.shape))
+
+
+def map_quadrature(env: EnvironmentMap, view: int | PixelFrames = VIEW, dim_width: int = DIM_WIDTH,
+                   fine_width: int = FINE_WIDTH, cap_degrees: float = CAP_DEGREES) -> MapQuadrature:
+    """The pairs and weights of a view (the reference view at `view` × `view`, or the given
+    frames) under `env`: the bright texels for every pixel; of the rest, per pixel, the coarse
+    texels that reach within `cap_degrees` of its mirror direction (where a sharp lobe is) are
+    replaced by their fine ones, the others taken whole. Every texel at its centre, with its
+    exact solid angle."""
+    frames = sphere_frames(view) if isinstance(view, int) else view
+    n, t, b, v = frames.normal, frames.tangent, frames.bitangent, frames.view
     layers = _layers(env, dim_width, fine_width)
     coarse_d, coarse_e = _energy(layers.coarse)
     fine_d, fine_e = _energy(layers.fine)
     hc, wc = layers.coarse.height, layers.coarse.width
     fy, fx = layers.fine.height // hc, layers.fine.width // wc
-    z = np.array([0.0, 0.0, 1.0])
-    mirror = 2.0 * n[:, 2:3] * n - z
+    mirror = 2.0 * (n * v).sum(axis=1, keepdims=True) * n - v
     near = coarse_d @ mirror.T >= np.cos(np.radians(cap_degrees) + 0.5 * np.hypot(np.pi / hc, 2.0 * np.pi / wc))
     # (pixel, texel) of every part: bright ones, coarse ones not near, fine children of near ones
     pix_b, tex_b = np.nonzero(np.ones((len(n), len(layers.bright_dirs)), bool))
@@ -186,21 +207,23 @@ def map_quadrature(env: EnvironmentMap, view: int = VIEW, dim_width: int = DIM_W
     order = np.argsort(pixel[keep], kind="stable")
     pixel, world, energy, cos = pixel[keep][order], world[keep][order], energy[keep][order], cos[keep][order]
     wi = np.stack([(world * t[pixel]).sum(1), (world * b[pixel]).sum(1), cos], axis=1)
-    wo = np.stack([t[pixel, 2], b[pixel, 2], n[pixel, 2]], axis=1)  # +Z in each pixel's frame
-    return MapQuadrature(env.name, view, sphere.inside, pixel, wi, wo, energy * cos[:, None])
+    wo = np.stack([(v[pixel] * axis[pixel]).sum(1) for axis in (t, b, n)], axis=1)  # the view in each pixel's frame
+    return MapQuadrature(env.name, frames.inside, pixel, wi, wo, energy * cos[:, None])
 
 
 def default_maps() -> list[EnvironmentMap]:
     return [spec(name).build(*DEFAULT_MAP_SIZE) for name in DEFAULT_MAPS]
 
 
-def fit_target(source, metric: str, sampling: dict | None = None, maps: Sequence[EnvironmentMap] | None = None):
+def fit_target(source, metric: str, sampling: dict | None = None, maps: Sequence[EnvironmentMap] | None = None,
+               view: int | PixelFrames = VIEW):
     """What a fit by `metric` runs over: the source's renders (the image metric, under `maps`,
-    default DEFAULT_MAPS) or its samples (`sampling`: samples_of's keyword arguments)."""
+    default DEFAULT_MAPS, seen in `view`) or its samples (`sampling`: samples_of's keyword
+    arguments)."""
     from brdflab.fitting.samples import samples_of
 
     if metric == "image":
-        return SceneImages.of_source(source, maps)
+        return SceneImages.of_source(source, maps, view)
     if maps:
         raise BRDFLabError(f"maps are for the image metric; the {metric} metric fits samples")
     return samples_of(source, **(sampling or {}))
@@ -212,8 +235,9 @@ class SceneImages(SampleSet):
     `size` counts pixels (a fit never subsets them); `chunks` is not available: the fitter and
     the metric functions ask for images (`row_images`, `errors`)."""
 
-    def __init__(self, quadratures: Sequence[MapQuadrature], target: np.ndarray) -> None:
+    def __init__(self, quadratures: Sequence[MapQuadrature], target: np.ndarray, seen: str = "the sphere") -> None:
         self.quadratures = list(quadratures)
+        self.seen = seen  # what the pixels show: the reference sphere, or a mesh by name
         self.n_channels = int(target.shape[0])
         self.target = target  # (C, P): the source's images, all maps' pixels end to end
         self.size = int(target.shape[1])
@@ -234,14 +258,15 @@ class SceneImages(SampleSet):
         self.toned = toned
 
     @classmethod
-    def of_source(cls, source, maps: Sequence[EnvironmentMap] | None = None, view: int = VIEW,
+    def of_source(cls, source, maps: Sequence[EnvironmentMap] | None = None, view: int | PixelFrames = VIEW,
                   dim_width: int = DIM_WIDTH, fine_width: int = FINE_WIDTH) -> "SceneImages":
-        """The scene of `maps` (default: DEFAULT_MAPS) with `source` rendered as its target."""
+        """The scene of `maps` (default: DEFAULT_MAPS) with `source` rendered as its target,
+        seen in `view` (the reference view at that size, or a mesh's frames)."""
         if source.n_channels not in (1, 3):
             raise BRDFLabError(f"the image metric renders 1 or 3 channels, not {source.n_channels}")
         quadratures = [map_quadrature(env, view, dim_width, fine_width) for env in (maps or default_maps())]
         target = np.concatenate([q.render(source.evaluate, source.n_channels) for q in quadratures], axis=1)
-        return cls(quadratures, target)
+        return cls(quadratures, target, "the sphere" if isinstance(view, int) else view.name)
 
     # --- what a SampleSet offers ---------------------------------------------------------
     def chunks(self) -> Iterator:
@@ -252,12 +277,12 @@ class SceneImages(SampleSet):
         fewer, …; a smaller step where a map would keep no lit pixel), with their pairs and
         target: the same renders, sampled more coarsely."""
         for step in range(max(1, int(math.sqrt(self.size / max(size, 1)))), 1, -1):
-            keep = np.zeros((self.quadratures[0].view,) * 2, bool)
+            keep = np.zeros(self.quadratures[0].inside.shape, bool)
             keep[step // 2::step, step // 2::step] = True
             picked = [q.pick(keep) for q in self.quadratures]
             parts = [self.target[:, s:e][:, chosen] for (_, chosen), s, e in zip(picked, self.bounds[:-1], self.bounds[1:])]
             if all(part.max(initial=0.0) > 0.0 for part in parts):  # every map keeps lit pixels
-                return SceneImages([q for q, _ in picked], np.concatenate(parts, axis=1))
+                return SceneImages([q for q, _ in picked], np.concatenate(parts, axis=1), self.seen)
         return self
 
     def digest(self) -> str:

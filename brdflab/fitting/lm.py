@@ -838,7 +838,8 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
     what = "all samples fitted" if score_on is None or score_on is samples else f"{scored.size} samples (all of the source)"
     if isinstance(scored, SceneImages):
         n = len(scored.quadratures)
-        what = f"renders under {n} map{'s' * (n != 1)} ({', '.join(q.name for q in scored.quadratures)})"
+        what = (f"renders{'' if scored.seen == 'the sphere' else ' of ' + scored.seen} under {n} map{'s' * (n != 1)} "
+                f"({', '.join(q.name for q in scored.quadratures)})")
     return FitResult(result_material, error, options.metric, time.perf_counter() - t0, iterations,
                      passes, status, message, history, warnings, zero_error, what)
 

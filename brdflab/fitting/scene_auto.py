@@ -102,4 +102,4 @@ def scene_auto(scene: SceneImages, tolerance: float = DEFAULT_SCENE_TOLERANCE, c
         reason = f"cancelled; of the candidates fully fitted, {_label(chosen)} is kept"
     error = chosen.error_held_back if chosen.result is not None else math.nan
     return Ladder(done, chosen, reason, tolerance, "image", scene.size, 0, time.perf_counter() - t0,
-                  time.process_time() - c0, error, scene.size)
+                  time.process_time() - c0, error, scene.size, seen=scene.seen)

@@ -202,7 +202,7 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
     import time
 
     from brdflab.errors import BRDFLabError
-    from brdflab.fitting.image_metric import fit_target
+    from brdflab.fitting.image_metric import VIEW, fit_target
     from brdflab.fitting.lm import STOPPED, fit
     from brdflab.fitting.second_error import second_error
 
@@ -216,7 +216,7 @@ def _run_fit(start, source, sampling: dict, options, messages, cancel) -> None:
 
     try:
         sampling = dict(sampling)
-        samples = fit_target(source, options.metric, sampling, sampling.pop("maps", None))
+        samples = fit_target(source, options.metric, sampling, sampling.pop("maps", None), sampling.pop("view", VIEW))
         messages.put(("started", samples.size))
         result = fit(start, samples, options, progress=progress, cancel=cancel)
         if result.status not in STOPPED:  # stopped: Stop answers now, without a render
@@ -322,7 +322,7 @@ def _run_auto(source, settings: dict, messages, cancel) -> None:
     them, then the ladder (fitting/auto.py), reporting after every screen and full fit."""
     from brdflab.errors import BRDFLabError
     from brdflab.fitting.auto import auto_fit
-    from brdflab.fitting.image_metric import SceneImages
+    from brdflab.fitting.image_metric import VIEW, SceneImages
     from brdflab.fitting.samples import samples_of
     from brdflab.fitting.scene_auto import scene_auto
     from brdflab.fitting.second_error import second_error
@@ -330,7 +330,7 @@ def _run_auto(source, settings: dict, messages, cancel) -> None:
     report = lambda p: messages.put(("progress", p))
     try:
         if settings["metric"] == "image":  # scene-Auto: judged by renders under the window's map
-            scene = SceneImages.of_source(source, settings["maps"])
+            scene = SceneImages.of_source(source, settings["maps"], settings.get("view", VIEW))
             messages.put(("started", scene.size))
             ladder = scene_auto(scene, settings["tolerance"], settings["combination"], settings["models"],
                                 progress=report, cancel=cancel)

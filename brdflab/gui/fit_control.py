@@ -49,11 +49,12 @@ class FitControl:
             return
         options = FitOptions(metric=metric)
         sampling = {"kind": kind, "size": size, "density": 45}
-        if metric == "image":  # judged under the object view's map, as the user sees the material
-            sampling = {"maps": self._object_view_maps()}
+        if metric == "image":  # judged on the object view's mesh, camera and map, as the user sees the material
+            view, seen = self._object_view_frames()
+            sampling = {"maps": self._object_view_maps(), "view": view}
         # the samples are drawn and the fit runs in a worker process: the window stays live
         self._start_worker(FitProcess(start, source, sampling, options, self),
-                           lambda n: f"fitting {n} pixels of the sphere under the object view's map…" if metric == "image" else
+                           lambda n: f"fitting {n} pixels of {seen} under the object view's map…" if metric == "image" else
                            f"fitting {n} samples…", self._fit_progress, self._fit_finished,
                            "starting the fit…")
 
@@ -63,6 +64,25 @@ class FitControl:
         renderer = getattr(self.object_view, "renderer", None)
         environment = renderer.environment if renderer is not None else None
         return None if environment is None else [environment]
+
+    def _object_view_frames(self) -> tuple:
+        """The image metric's view in the window: the object view's mesh as its camera and turn
+        show it (render/gbuffer.py: its own rasterisation, sized to cover as many pixels as the
+        reference sphere at the metric's size), and what it is called; the reference sphere
+        where the view shows it or has no OpenGL."""
+        from brdflab.fitting.image_metric import VIEW, sphere_frames
+        from brdflab.render.gbuffer import frames_covering
+
+        view = self.object_view
+        renderer = getattr(view, "renderer", None)
+        if view.ctx is None or renderer is None or renderer.mesh is None or view.settings.reference_view:
+            return VIEW, "the sphere"
+        with view.current():
+            frames = frames_covering(view.ctx, renderer.mesh, renderer.camera, int(sphere_frames(VIEW).inside.sum()),
+                                     renderer.model_rotation)
+        if not frames.inside.any():
+            return VIEW, "the sphere"
+        return frames, f"the object view's {renderer.mesh.name}"
 
     def _start_worker(self, thread, started: Callable[[int], str], progress: Callable, finished: Callable,
                       starting: str) -> None:
@@ -136,9 +156,10 @@ class FitControl:
         except BRDFLabError as e:
             self.show_error(f"Auto models: {e}")
             return
-        if settings["metric"] == "image":  # scene-Auto: the object view's map, as the user sees it
-            settings = {**settings, "maps": self._object_view_maps()}
-            started = lambda n: f"scene-Auto on {n} pixels of the sphere under the object view's map…"
+        if settings["metric"] == "image":  # scene-Auto: the object view's mesh, camera and map, as the user sees it
+            view, seen = self._object_view_frames()
+            settings = {**settings, "maps": self._object_view_maps(), "view": view}
+            started = lambda n: f"scene-Auto on {n} pixels of {seen} under the object view's map…"
         else:
             started = lambda n: f"Auto on {n} samples: fitting up to {settings['split']}, holding as many back…"
         self._start_worker(AutoFitProcess(source, settings, self), started, self._auto_progress,
