@@ -410,7 +410,8 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
     t0 = time.perf_counter()
     view = _image_view(args)
     scene = SceneImages.of_source(source, maps, view)
-    seen = f"{view.name} ({args.mesh})" if args.mesh else "the reference sphere"
+    seen = (view.name if Path(args.mesh).name == args.mesh else f"{view.name} ({args.mesh})") if args.mesh \
+        else "the reference sphere"
     print(f"brdflab fit: auto: the scene: {scene.size} pixels of {seen} under {', '.join(q.name for q in scene.quadratures)} "
           f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
 
@@ -427,7 +428,7 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
                "source": str(source_path),
                "fit": chosen.as_dict()}
     _store_pick(args, source_path, source, ladder, payload)
-    lines = _ladder_lines(ladder, f"Scene-Auto ladder (image error of the sphere under "
+    lines = _ladder_lines(ladder, f"Scene-Auto ladder (image error of {scene.seen} under "
                                   f"{', '.join(q.name for q in scene.quadratures)}; tolerance {tolerance:.1%}; the "
                                   f"one-lobe candidates are screened on a sixteenth of the pixels, their image error "
                                   f"in brackets):", "fitted", "image")
@@ -830,8 +831,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --metric image: a map the renders are lit by (repeat for several; default: "
                         "three synthetic maps, a sky with a sun, a room with a window, a studio)")
     p.add_argument("--mesh", help="with --metric image (and scene-Auto): judge the renders on this mesh (OBJ, PLY, "
-                                  "STL, OFF, GLB) as `brdflab render --view orbit --mesh FILE` shows it, instead of "
-                                  "the reference sphere")
+                                  "STL, OFF, GLB, glTF) as `brdflab render --view orbit --mesh FILE` shows it, "
+                                  "instead of the reference sphere")
     p.add_argument("--compression", default="none", choices=["none", "cbrt", "log"], help="of the values fitted")
     p.add_argument("--init", type=material_path, help="XML file whose last fitting (or material) is the initial guess")
     p.add_argument("--init-fitting", type=int_in(0, 1_000_000), default=None, help="use this stored fitting of --init")

@@ -105,6 +105,9 @@ def test_cli_scene_auto_on_a_mesh_judges_the_meshs_pixels(tmp_path):
     assert payload["mesh"] == str(mesh) and payload["maps"] == ["sky"] and payload["seen"] == "spot.obj"
     chosen = payload["candidates"][payload["chosen"]]
     assert chosen["lobes"] == ["Ward"] and chosen["error_held_back"] <= 0.02
+    human = _cli("fit", "example:ward", "--auto", "--env", str(env), "--mesh", str(mesh), "--models", "Ward",
+                 cwd=tmp_path)
+    assert "Scene-Auto ladder (image error of spot.obj under sky" in human.stdout, human.stdout
     scene_line = run.stderr.splitlines()[0]
     assert "pixels of spot.obj" in scene_line, scene_line
     pixels = int(scene_line.split("the scene: ")[1].split()[0])
@@ -114,6 +117,7 @@ def test_cli_scene_auto_on_a_mesh_judges_the_meshs_pixels(tmp_path):
 @pytest.mark.parametrize("args, says", [
     (["--env", "missing.exr"], "missing.exr"),
     (["--metric", "image", "--mesh", "missing.obj"], "missing.obj"),
+    (["--metric", "image", "--mesh", "."], "not a regular file: a directory"),
     (["--mesh", str(ROOT / "resources" / "meshes" / "spot.obj")], "--mesh applies to --metric image"),
     (["--metric", "image", "--tolerance", "0"], "--tolerance 0"),
     (["--metric", "image", "--samples", "subset"], "--samples"),

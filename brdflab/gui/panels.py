@@ -385,9 +385,9 @@ def refine_job(job: tuple) -> tuple:
 
 
 SAMPLE_AUTO_TIP = "Auto: a rung of lobes must improve the held-back error by more than this (relative) to be climbed"
-SCENE_AUTO_TIP = ("scene-Auto (the image metric): the fewest lobes whose render of the sphere under the object "
-                  "view's map is within this image error of the measurement's (2 %: about one just-noticeable "
-                  "difference)")
+SCENE_AUTO_TIP = ("scene-Auto (the image metric): the fewest lobes whose render of what the object view shows "
+                  "(its mesh, camera and map) is within this image error of the measurement's (2 %: about one "
+                  "just-noticeable difference)")
 
 
 def _second_error(statistics: dict) -> str:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from brdflab.errors import BRDFLabError
-from brdflab.io.bounded import read_bounded
+from brdflab.io.bounded import kind_problem, read_bounded
 from brdflab.io.resources import data_dir
 
 MAX_TRIANGLES = 20_000_000
@@ -127,6 +127,9 @@ def load_mesh(path: str | os.PathLike) -> Mesh:
     path = Path(path)
     if not path.exists():
         raise BRDFLabError("no such file", path)
+    problem = kind_problem(path.stat().st_mode)  # a folder named like a mesh or not: said as what it is
+    if problem:
+        raise BRDFLabError(problem, path)
     if path.suffix.lower() not in FORMATS:
         raise BRDFLabError(f"unsupported mesh type {path.suffix!r} (use {', '.join(FORMATS)})", path)
     data = read_bounded(path, MAX_MESH_BYTES, "a mesh file")
