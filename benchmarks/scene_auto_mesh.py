@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from brdflab.fitting.image_metric import VIEW, SceneImages, sphere_frames
+from brdflab.fitting.image_metric import VIEW, SceneImages
 from brdflab.fitting.scene_auto import scene_auto
 from brdflab.io.mesh import load_mesh
 from brdflab.io.resources import data_dir
@@ -39,8 +39,7 @@ def main() -> None:
     args = parser.parse_args()
     env = load_environment(SHARED / "envmaps" / "forest.exr").downsampled(256, 128)
     mesh = load_mesh(data_dir("resources") / "meshes" / "spot.obj")
-    views = {"sphere": VIEW, "spot": frames_covering(create_context(), mesh, OrbitCamera(),
-                                                     int(sphere_frames(VIEW).inside.sum()))}
+    views = {"sphere": VIEW, "spot": frames_covering(create_context(), mesh, OrbitCamera())}
     rows = []
     for name in args.materials.split(","):
         source = load_source(SHARED / "merl_slices" / f"{name}.slice")

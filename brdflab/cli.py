@@ -283,19 +283,17 @@ def _image_view(args: argparse.Namespace):
     orbit --mesh FILE` draws it (its camera; the view sized so that the mesh covers as many
     pixels as the reference sphere does at the metric's VIEW × VIEW); else the reference view's
     size."""
-    from brdflab.fitting.image_metric import VIEW, sphere_frames
+    from brdflab.fitting.image_metric import VIEW
 
-    if not args.mesh:
+    if not args.mesh:  # (cmd_fit refused --mesh without the image metric)
         return VIEW
-    if args.metric != "image":
-        raise BRDFLabError("--mesh applies to --metric image and scene-Auto (the renders are judged on it)")
     from brdflab.io.mesh import load_mesh
     from brdflab.render.camera import OrbitCamera
     from brdflab.render.context import create_context
     from brdflab.render.gbuffer import frames_covering
 
     mesh = load_mesh(args.mesh)
-    frames = frames_covering(create_context(), mesh, OrbitCamera(), int(sphere_frames(VIEW).inside.sum()))
+    frames = frames_covering(create_context(), mesh, OrbitCamera())
     if not frames.inside.any():
         raise BRDFLabError(f"{args.mesh}: the mesh covers no pixel of the view")
     return frames
@@ -410,8 +408,7 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
     t0 = time.perf_counter()
     view = _image_view(args)
     scene = SceneImages.of_source(source, maps, view)
-    seen = (view.name if Path(args.mesh).name == args.mesh else f"{view.name} ({args.mesh})") if args.mesh \
-        else "the reference sphere"
+    seen = scene.seen if not args.mesh or Path(args.mesh).name == args.mesh else f"{scene.seen} ({args.mesh})"
     print(f"brdflab fit: auto: the scene: {scene.size} pixels of {seen} under {', '.join(q.name for q in scene.quadratures)} "
           f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
 

@@ -240,7 +240,7 @@ def test_on_a_mesh_the_metric_renders_what_the_labs_renderer_draws():
     renderer = ObjectRenderer(create_context())
     renderer.set_mesh(mesh)
     renderer.set_environment(env)
-    frames = frames_covering(renderer.ctx, mesh, OrbitCamera(), 812)
+    frames = frames_covering(renderer.ctx, mesh, OrbitCamera(), pixels=812)
     assert 0.85 * 812 <= frames.inside.sum() <= 1.3 * 812
     q = map_quadrature(env, frames)
     height, width = frames.inside.shape

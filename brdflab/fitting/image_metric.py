@@ -46,6 +46,7 @@ FINE_WIDTH = 256  # … and to FINE_WIDTH near each pixel's mirror direction; br
 MAX_BRIGHT = 512  # (halved until at most this many)
 CAP_DEGREES = 6.0  # near: a coarse texel reaching this close to the mirror direction (12: 1.6 × the pairs, same error)
 PAIR_BLOCK = 65_536  # pairs per block of a pass (memory stays a few blocks)
+SPHERE = "the sphere"  # what the reference view's pixels show (a mesh's are named by its file)
 TONE_FLOOR = 1e-3  # the tone curve's slope is taken no lower than at this share of a map's mean
 
 
@@ -165,7 +166,7 @@ class PixelFrames:
     tangent: np.ndarray  # (pixels, 3)
     bitangent: np.ndarray  # (pixels, 3)
     view: np.ndarray  # (pixels, 3): towards the camera
-    name: str = "sphere"
+    name: str = SPHERE
 
 
 def sphere_frames(view: int = VIEW) -> PixelFrames:
@@ -235,7 +236,7 @@ class SceneImages(SampleSet):
     `size` counts pixels (a fit never subsets them); `chunks` is not available: the fitter and
     the metric functions ask for images (`row_images`, `errors`)."""
 
-    def __init__(self, quadratures: Sequence[MapQuadrature], target: np.ndarray, seen: str = "the sphere") -> None:
+    def __init__(self, quadratures: Sequence[MapQuadrature], target: np.ndarray, seen: str = SPHERE) -> None:
         self.quadratures = list(quadratures)
         self.seen = seen  # what the pixels show: the reference sphere, or a mesh by name
         self.n_channels = int(target.shape[0])
@@ -264,9 +265,10 @@ class SceneImages(SampleSet):
         seen in `view` (the reference view at that size, or a mesh's frames)."""
         if source.n_channels not in (1, 3):
             raise BRDFLabError(f"the image metric renders 1 or 3 channels, not {source.n_channels}")
-        quadratures = [map_quadrature(env, view, dim_width, fine_width) for env in (maps or default_maps())]
+        frames = sphere_frames(view) if isinstance(view, int) else view
+        quadratures = [map_quadrature(env, frames, dim_width, fine_width) for env in (maps or default_maps())]
         target = np.concatenate([q.render(source.evaluate, source.n_channels) for q in quadratures], axis=1)
-        return cls(quadratures, target, "the sphere" if isinstance(view, int) else view.name)
+        return cls(quadratures, target, frames.name)
 
     # --- what a SampleSet offers ---------------------------------------------------------
     def chunks(self) -> Iterator:

@@ -42,7 +42,7 @@ from brdflab.models import get_model
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULT_RESTARTS
 from brdflab.fitting.diagnosis import suspicions
 from brdflab.fitting.nnls import nnls
-from brdflab.fitting.image_metric import SceneImages, tone
+from brdflab.fitting.image_metric import SPHERE, SceneImages, tone
 from brdflab.fitting.metrics import METRICS, check_metric, lobe_shares, metric_errors, sample_weight
 from brdflab.fitting.samples import SampleSet
 from brdflab.geometry.vec import shared_half_vectors
@@ -838,7 +838,7 @@ def fit(material: AnalyticMaterial, samples: SampleSet, options: FitOptions | No
     what = "all samples fitted" if score_on is None or score_on is samples else f"{scored.size} samples (all of the source)"
     if isinstance(scored, SceneImages):
         n = len(scored.quadratures)
-        what = (f"renders{'' if scored.seen == 'the sphere' else ' of ' + scored.seen} under {n} map{'s' * (n != 1)} "
+        what = (f"renders{'' if scored.seen == SPHERE else ' of ' + scored.seen} under {n} map{'s' * (n != 1)} "
                 f"({', '.join(q.name for q in scored.quadratures)})")
     return FitResult(result_material, error, options.metric, time.perf_counter() - t0, iterations,
                      passes, status, message, history, warnings, zero_error, what)

@@ -68,7 +68,7 @@ class AutoLadderPanel(QWidget):
         fitted = sum(c.fitted for c in ladder.candidates)
         scene = ladder.metric == "image"
         self.table.setHorizontalHeaderLabels(list(SCENE_COLUMNS if scene else COLUMNS))
-        judged = (f"image error of {ladder.seen or 'the sphere'}'s {ladder.fitted_samples} pixels under the object "
+        judged = (f"image error of {ladder.seen}'s {ladder.fitted_samples} pixels under the object "
                   f"view's map; an image "
                   f"error within" if scene else f"{ladder.metric} error on {ladder.fitted_samples} fitted and "
                   f"{ladder.held_back_samples} held-back samples; tolerance")

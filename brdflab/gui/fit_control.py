@@ -70,18 +70,17 @@ class FitControl:
         show it (render/gbuffer.py: its own rasterisation, sized to cover as many pixels as the
         reference sphere at the metric's size), and what it is called; the reference sphere
         where the view shows it or has no OpenGL."""
-        from brdflab.fitting.image_metric import VIEW, sphere_frames
+        from brdflab.fitting.image_metric import SPHERE, VIEW
         from brdflab.render.gbuffer import frames_covering
 
         view = self.object_view
         renderer = getattr(view, "renderer", None)
         if view.ctx is None or renderer is None or renderer.mesh is None or view.settings.reference_view:
-            return VIEW, "the sphere"
+            return VIEW, SPHERE
         with view.current():
-            frames = frames_covering(view.ctx, renderer.mesh, renderer.camera, int(sphere_frames(VIEW).inside.sum()),
-                                     renderer.model_rotation)
+            frames = frames_covering(view.ctx, renderer.mesh, renderer.camera, renderer.model_rotation)
         if not frames.inside.any():
-            return VIEW, "the sphere"
+            return VIEW, SPHERE
         return frames, f"the object view's {renderer.mesh.name}"
 
     def _start_worker(self, thread, started: Callable[[int], str], progress: Callable, finished: Callable,

@@ -254,9 +254,9 @@ def stack_layers(env: EnvironmentMap, indices) -> PrefilteredStack | StackLayers
     prefiltered image from 3–5 of the stack's 37 layers, ~10× less than building the stack
     (1.3–2 s) for a map it meets for the first time."""
     key = map_key(env)
-    with _LOCK:
-        if key in _CACHE:
-            return _CACHE[key]
+    known = _in_memory(key)
+    if known is not None:
+        return known
     stored = read_stack(key)
     if stored is not None:
         _keep(stored)
@@ -282,13 +282,21 @@ def prefiltered_stack(env: EnvironmentMap) -> PrefilteredStack:
     the user's cache folder (`prefiltered/`, 16 MB a map), so that a command or a window that
     meets a map seen before does not build it again (1.1–2 s: a map's first prefiltered frame)."""
     key = map_key(env)
+    known = _in_memory(key)
+    if known is not None:
+        return known
+    stack = stored_or_built(env, key)
+    _keep(stack)
+    return stack
+
+
+def _in_memory(key: str) -> PrefilteredStack | None:
+    """The stack kept in memory for `key` (now the most recent), or None."""
     with _LOCK:
         if key in _CACHE:
             _CACHE.move_to_end(key)
             return _CACHE[key]
-    stack = stored_or_built(env, key)
-    _keep(stack)
-    return stack
+    return None
 
 
 def stored_or_built(env: EnvironmentMap, key: str) -> PrefilteredStack:

@@ -11,7 +11,7 @@ from collections.abc import Callable
 import moderngl
 import numpy as np
 
-from brdflab.fitting.image_metric import PixelFrames
+from brdflab.fitting.image_metric import VIEW, PixelFrames, sphere_frames
 from brdflab.io.mesh import Mesh
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.glsl import GLSL_VERSION, shader_source
@@ -25,11 +25,13 @@ def mesh_frames(ctx: moderngl.Context, mesh: Mesh, camera: OrbitCamera, width: i
     return _with_mesh(ctx, mesh, lambda draw: draw(camera, width, height, rotation))
 
 
-def frames_covering(ctx: moderngl.Context, mesh: Mesh, camera: OrbitCamera, pixels: int,
-                    rotation: np.ndarray | None = None, largest: int = 128) -> PixelFrames:
-    """The mesh's frames in a square view sized so that it covers about `pixels` pixels (the
-    reference sphere's count at the metric's size: a mesh that fills a fifth of the view is
-    judged on as many pixels as the sphere), at most largest × largest."""
+def frames_covering(ctx: moderngl.Context, mesh: Mesh, camera: OrbitCamera, rotation: np.ndarray | None = None,
+                    pixels: int | None = None, largest: int = 128) -> PixelFrames:
+    """The mesh's frames in a square view sized so that it covers about `pixels` pixels (by
+    default the reference sphere's count at the metric's VIEW: a mesh that fills a fifth of the
+    view is judged on as many pixels as the sphere), at most largest × largest."""
+    pixels = int(sphere_frames(VIEW).inside.sum()) if pixels is None else pixels
+
     def sized(draw) -> PixelFrames:
         size = int(round(math.sqrt(pixels / (math.pi / 4))))
         frames = draw(camera, size, size, rotation)
