@@ -278,3 +278,23 @@ def test_a_table_saved_before_the_image_error_column_still_loads(tmp_path):
     pd.DataFrame([row], columns=old).to_csv(tmp_path / "results.csv", index=False)
     table = ResultsTable.load(tmp_path)
     assert table.rows["k1"]["error"] == 0.25 and np.isnan(table.rows["k1"]["image_error"])
+
+
+def test_a_stored_fit_is_found_again_whatever_its_key_digests_to(tmp_path):
+    """A pair's key is a digest; one made of digits and an 'e' (this source's, before keys were
+    prefixed: 69395966538766031e18) was read back from <FitStatistics> as a number, so a rerun
+    did not find the fit it had stored. Every key must come back as the text it was."""
+    from brdflab.batch.store import KEY, FitStore
+    from brdflab.batch.tasks import FitTask
+    from brdflab.io.xmlio import Fitting
+
+    source = str(tmp_path / "m24941.slice")
+    task = FitTask("/data/m24941.slice", "0" * 64, ("Lambertian",), "Linear", {})
+    material = material_from_lobes(["Lambertian"], "Linear", 3)
+    store = FitStore(tmp_path, [source])
+    store.add(task.key, source, Fitting(material, error=0.5), "MERLSlice")
+    store.write(source, [{"key": task.key, "status": "done"}], "0" * 64)
+    again = FitStore(tmp_path, [source])
+    again.load_existing(warn=pytest.fail)
+    assert list(again.fittings) == [task.key]
+    assert [f.statistics[KEY] for f in load(tmp_path / "m24941.xml").fittings] == [task.key]

@@ -53,9 +53,11 @@ class FitTask:
 
     @property
     def key(self) -> str:
-        """The pair's identity (source, lobes, options), independent of the file's content."""
+        """The pair's identity (source, lobes, options), independent of the file's content.
+        Never a number: a digest of digits alone would be read back from the XML's statistics or
+        the table as one (and lose its leading zeros), so the fit would not be found again."""
         text = json.dumps([self.source, self.lobe_label, self.options_json])
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
+        return "pair-" + hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
 @dataclass
