@@ -112,7 +112,8 @@ def refined_environment_image(source, env: EnvironmentMap, width: int, height: i
     h, w, k = env.height, env.width, subdivision
     # a texel is near when any of it may lie within the cone: its centre within the cone
     # widened by half a texel diagonal
-    cos_near = np.cos(np.radians(cap_degrees) + 0.5 * np.hypot(np.pi / h, 2.0 * np.pi / w))
+    half_diagonal = 0.5 * np.hypot(np.pi / h, 2.0 * np.pi / w)
+    cos_near, sin_half = np.cos(np.radians(cap_degrees) + half_diagonal), np.sin(half_diagonal)
     lum = env.data.reshape(-1, 3).astype(float) @ LUMINANCE
     bright = lum >= BRIGHT * max(float(lum.mean()), 1e-300)
     offsets = (np.arange(k) + 0.5) / k
@@ -127,20 +128,21 @@ def refined_environment_image(source, env: EnvironmentMap, width: int, height: i
         near = (d @ mirror.T) >= cos_near  # (texels, pixels)
         near[bright] = True
         total = by_texel_centres(source, d, weight, (t, b, n), wo, ~near)  # the near ones left out
-        # the near texels, part by part: (pairs, k, k) sub-texel directions and solid angles
-        texel, pixel = np.nonzero(near)
+        # the near texels, part by part: (pairs, k, k) sub-texel directions and solid angles;
+        # a texel wholly below a pixel's horizon adds nothing there and is not split
+        texel, pixel = np.nonzero(near & ((d @ n.T) > -sin_half))
         row, col = np.divmod(texel, w)
         v_edges = (row[:, None] + np.arange(k + 1) / k) / h  # (pairs, k + 1)
         part_solid = band_solid_angle(v_edges[:, :-1], v_edges[:, 1:], w * k)  # (pairs, k): per row of parts
         world = uv_to_direction(((col[:, None] + offsets) / w)[:, None, :],
-                                ((row[:, None] + offsets) / h)[:, :, None])  # (pairs, k, k, 3)
-        tp, bp, np_ = t[pixel][:, None, None], b[pixel][:, None, None], n[pixel][:, None, None]
-        wi = np.stack([(world * tp).sum(-1), (world * bp).sum(-1), (world * np_).sum(-1)], axis=-1)
-        f = _rgb(source.evaluate(wi.reshape(-1, 3), np.broadcast_to(wo[pixel][:, None, None], wi.shape).reshape(-1, 3)),
-                 (len(pixel), k * k))
-        g = (f * (np.maximum(wi[..., 2], 0.0).reshape(len(pixel), k * k, 1))
-             * np.repeat(part_solid, k, axis=1)[..., None]).sum(axis=1)  # (pairs, 3): ∫ f cos over the texel
-        np.add.at(total, pixel, g * env.data.reshape(-1, 3)[texel])
+                                ((row[:, None] + offsets) / h)[:, :, None]).reshape(len(pixel), k * k, 3)
+        wi = world @ np.stack([t, b, n], axis=-1)[pixel]  # (pairs, k², 3) local: the pixel's frame
+        f = _rgb(source.evaluate(wi.reshape(-1, 3), np.repeat(wo[pixel], k * k, axis=0)), (len(pixel), k * k))
+        cos = np.maximum(wi[..., 2], 0.0)
+        g = np.einsum("pqc,pq->pc", f, cos * np.repeat(part_solid, k, axis=1))  # (pairs, 3): ∫ f cos over the texel
+        g *= env.data.reshape(-1, 3)[texel]
+        for c in range(3):
+            total[:, c] += np.bincount(pixel, g[:, c], minlength=len(rows))
         out[rows, cols] = total
     return out
 
