@@ -297,6 +297,24 @@ class _Stopped(Exception):
 
 # --- the problem ---------------------------------------------------------------------------
 
+KEEP_PREPARED = 100_000  # a sample set up to this size keeps its prepared chunks for the whole descent
+
+
+@dataclass
+class _Prepared:
+    """A chunk inside the metric's domain: directions, values, weights (per channel: the
+    compression's too), Σ w y² per channel (with and without compression), and the measure."""
+
+    wi: np.ndarray
+    wo: np.ndarray
+    y: np.ndarray
+    weight: np.ndarray
+    channel_weight: list
+    yy: np.ndarray
+    plain_yy: np.ndarray
+    norm: float
+
+
 class _Problem:
     """Lobes, free parameters and a sample set; computes cost and normal equations."""
 
@@ -321,6 +339,7 @@ class _Problem:
         self.cost_floor = 0.0  # what the cost cannot resolve (set by `evaluate`)
         self.central = False  # central differences for the Jacobian (see `_normal_equations`)
         self.stop = stop
+        self._prepared: list[_Prepared] | None = None
         workers = options.workers or os.cpu_count() or 1
         self._pool = ThreadPoolExecutor(max_workers=workers) if workers > 1 else None
 
@@ -376,16 +395,36 @@ class _Problem:
                 rows.append((block.lobe, self.params_of(up)[0][block.lobe]))
         return rows, perturbed
 
-    def _chunk_grams(self, rows, chunk):
+    def _prepare(self, chunk) -> _Prepared:
+        """What a pass needs of a chunk besides the lobes' values: its samples inside the
+        metric's domain and their weights per channel."""
         wi, wo, y, w = chunk
-        reason = self.stop()
-        if reason is not None:
-            raise _Stopped(reason)
         norm = float(self._metric_weight(wi, wo, w, cosine=False).sum())
         weight = self._metric_weight(wi, wo, w)
         inside = weight > 0.0  # samples outside the metric's domain cost nothing
         if not inside.all():
             wi, wo, y, weight = wi[inside], wo[inside], y[inside], weight[inside]
+        channel_weight = [weight * self._compression_weight(y[:, c]) for c in range(y.shape[1])]
+        yy = np.array([np.einsum("n,n->", wc, y[:, c] ** 2) for c, wc in enumerate(channel_weight)])  # not `@`: OpenBLAS threads 1-D dots badly
+        plain_yy = np.array([np.einsum("n,n->", weight, y[:, c] ** 2) for c in range(y.shape[1])])
+        return _Prepared(wi, wo, y, weight, channel_weight, yy, plain_yy, norm)
+
+    def _prepared_chunks(self):
+        """The sample set's chunks, prepared; kept for the fit where the set is small (the
+        coarse stage's passes spent a third of their time preparing the same samples again)."""
+        if self._prepared is not None:
+            return self._prepared
+        prepared = map(self._prepare, self.samples.chunks())
+        if self.samples.size <= KEEP_PREPARED:
+            self._prepared = list(prepared)
+            return self._prepared
+        return prepared
+
+    def _chunk_grams(self, rows, chunk: _Prepared):
+        reason = self.stop()
+        if reason is not None:
+            raise _Stopped(reason)
+        wi, wo, y = chunk.wi, chunk.wo, chunk.y
         C = y.shape[1]
         R = len(rows)
         # E[k, r]: row r's lobe values, one plane for all channels, or one per channel when a
@@ -398,22 +437,17 @@ class _Problem:
                 E[:, r] = lobe_channels(lobes[l].model, wi, wo, p, C).T
         G = np.empty((C, R, R))
         b = np.empty((C, R))
-        yy = np.empty(C)
         plain = np.empty((C, len(self.material.lobes), len(self.material.lobes))) if self.options.compression != "none" else None
         plain_b = np.empty((C, len(self.material.lobes))) if plain is not None else None
-        plain_yy = np.empty(C) if plain is not None else None
         for c in range(C):
             Ec = E[min(c, K - 1)]
-            wc = weight * self._compression_weight(y[:, c])
-            G[c], b[c] = _weighted_gram(Ec, wc, y[:, c])
-            yy[c] = np.einsum("n,n->", wc, y[:, c] ** 2)  # not `@`: OpenBLAS threads 1-D dots badly
+            G[c], b[c] = _weighted_gram(Ec, chunk.channel_weight[c], y[:, c])
             if plain is not None:
                 L = plain.shape[1]
-                Eb = Ec[:L] * weight
+                Eb = Ec[:L] * chunk.weight
                 plain[c] = Eb @ Ec[:L].T
                 plain_b[c] = Eb @ y[:, c]
-                plain_yy[c] = np.einsum("n,n->", weight, y[:, c] ** 2)
-        return G, b, yy, plain, plain_b, plain_yy, norm
+        return G, b, chunk.yy, plain, plain_b, chunk.plain_yy if plain is not None else None, chunk.norm
 
     def _metric_weight(self, wi, wo, w, cosine: bool = True) -> np.ndarray:
         return sample_weight(self.options.metric, wi, wo, w, cosine)
@@ -457,7 +491,8 @@ class _Problem:
         """Sum the per-chunk Gram matrices over the whole sample set."""
         self.passes += 1
         work = lambda ch: self._chunk_grams(rows, ch)
-        parts = self._pool.map(work, self.samples.chunks()) if self._pool else map(work, self.samples.chunks())
+        chunks = self._prepared_chunks()
+        parts = self._pool.map(work, chunks) if self._pool else map(work, chunks)
         total = None
         for part in parts:
             if total is None:
