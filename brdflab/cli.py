@@ -245,8 +245,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGINT, previous)
         if show:
             print(file=sys.stderr)
+    unmeasured = False  # Ctrl-C while the second error was measured: the fit is kept without it
     if result.status not in STOPPED:  # a fit stopped by --time-limit or Ctrl-C ends now, without it
-        result.second = second_error(result.material, source, samples, maps)
+        try:
+            result.second = second_error(result.material, source, samples, maps)
+        except KeyboardInterrupt:
+            unmeasured = True
     payload = {**result.as_dict(), "samples": samples.size, "source": str(source_path)}
     if args.out:
         doc = document_for(source_path, source)
@@ -263,6 +267,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if result.status == "cancelled":
         saved = f"; the best parameters so far are saved in {args.out}" if args.out else ""
         print(f"brdflab fit: interrupted{saved}", file=sys.stderr)
+        return 130
+    if unmeasured:
+        saved = f"; the fit is saved in {args.out} without it" if args.out else ""
+        print(f"brdflab fit: interrupted while its {'sample' if args.metric == 'image' else 'image'} error was "
+              f"measured{saved}", file=sys.stderr)
         return 130
     return 0
 

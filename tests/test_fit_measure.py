@@ -6,7 +6,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -158,22 +157,71 @@ def run_fit(args, cwd):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
+def _interrupted_at_progress(args, cwd) -> tuple[int, str]:
+    """`brdflab fit ARGS` with its stderr on a terminal: SIGINT as soon as a progress line
+    shows an iteration; (exit status, everything it wrote on the terminal)."""
+    import pty
+    import select
+
+    master, slave = pty.openpty()
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "brdflab", "fit", *args], cwd=cwd, env=env,
+                            stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    text, sent = b"", False
+    while True:
+        ready, _, _ = select.select([master], [], [], 300)
+        if not ready:
+            proc.kill()
+            raise AssertionError(f"no output for 300 s: {text.decode(errors='replace')}")
+        try:
+            piece = os.read(master, 4096)
+        except OSError:  # the child closed the terminal
+            break
+        if not piece:
+            break
+        text += piece
+        if not sent and b"iteration" in text:
+            proc.send_signal(signal.SIGINT)
+            sent = True
+    os.close(master)
+    assert sent, text.decode(errors="replace")
+    return proc.wait(timeout=300), text.decode(errors="replace")
+
+
 def test_time_limit_stops_within_a_few_passes_and_ctrl_c_saves_the_best(tmp_path, big_table):
     args = [str(big_table), "--lobes", "Lambertian,CookTorrance,CookTorrance", "--json"]
-    t0 = time.perf_counter()
     proc = run_fit([*args, "--time-limit", "0.5"], tmp_path)
     out, err = proc.communicate(timeout=300)
-    wall = time.perf_counter() - t0
     payload = json.loads(out.splitlines()[-1])
     assert proc.returncode == 0 and payload["status"] == "time-limit"
     assert payload["seconds"] < 0.5 + 30 * 1.0  # generous on a loaded machine; see docs for typical numbers
-    # Ctrl-C: the best parameters so far are saved, exit status 130, one line on stderr
+    # Ctrl-C, pressed as a user at a terminal does, once the progress line shows the fit running:
+    # the best parameters so far are saved, exit status 130, one line on stderr
     out_xml = tmp_path / "fit.xml"
-    proc = run_fit([*args, "--out", str(out_xml)], tmp_path)
-    time.sleep(min(wall, 20) + 3)
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=300)
-    assert proc.returncode == 130, err
-    assert "Traceback" not in err and "saved" in err
+    code, err = _interrupted_at_progress([str(big_table), "--lobes", "Lambertian,CookTorrance,CookTorrance",
+                                          "--out", str(out_xml)], tmp_path)
+    assert code == 130, err
+    assert "Traceback" not in err and "best parameters so far are saved" in err
     doc = load(out_xml)
     assert len(doc.fittings) == 1 and doc.fittings[0].statistics["status"] == "cancelled"
+
+
+@needs_shared("merl_slices", "pvc.slice")
+def test_ctrl_c_while_the_second_error_is_measured_keeps_the_finished_fit(tmp_path, capsys, monkeypatch):
+    """A fit that has ended is measured once more, in the image (seconds on a full table); Ctrl-C
+    there used to lose the whole fit ("interrupted", nothing saved)."""
+    import brdflab.fitting.second_error as second
+
+    def pressed(*_, **__):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(second, "second_error", pressed)
+    out = tmp_path / "fit.xml"
+    code = main(["fit", str(DATA / "merl_slices" / "pvc.slice"), "--lobes", "Lambertian,CookTorrance",
+                 "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 130 and "Traceback" not in err
+    assert f"interrupted while its image error was measured; the fit is saved in {out} without it" in err
+    stats = load(out).fittings[0].statistics
+    assert stats["status"] == "converged" and "imageError" not in stats
