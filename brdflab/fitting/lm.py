@@ -41,7 +41,7 @@ from brdflab.material.analytic import MAX_SCALE, AnalyticMaterial, Lobe, lobe_ch
 from brdflab.models import get_model
 from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULT_RESTARTS
 from brdflab.fitting.diagnosis import suspicions
-from brdflab.fitting.nnls import nnls_normal
+from brdflab.fitting.nnls import nnls
 from brdflab.fitting.image_metric import SPHERE, SceneImages, tone
 from brdflab.fitting.metrics import METRICS, check_metric, lobe_shares, metric_errors, sample_weight
 from brdflab.fitting.samples import SampleSet
@@ -509,46 +509,37 @@ class _Problem:
         are (C, R, R) and (C, R), or (C, K, R, R) and (C, K, R): a Gram matrix per perturbation."""
         C, R = b.shape[0], b.shape[-1]
         L = len(self.material.lobes)
-        K = 1 + len(perturbed)
-        rows = np.tile(np.arange(L), (K, 1))  # (K, L): the row each lobe takes in perturbation k
+        A = np.zeros((C, 1 + len(perturbed), R))
         extra = L
-        for k, (var, _) in enumerate(perturbed, start=1):
-            block = self.owner[var]
-            if block.kind != "magnitude":
-                rows[k, block.lobe] = extra
+        for k, (var, up) in enumerate([(None, u), *perturbed]):
+            rows = list(range(L))
+            block = None if var is None else self.owner[var]
+            if block is not None and block.kind != "magnitude":
+                rows[block.lobe] = extra
                 extra += 1
-        A = np.zeros((C, K, R))
-        at = (np.arange(C)[:, None, None], np.arange(K)[None, :, None], rows[None])
-        if self.linear:
-            if b.ndim == 2:  # one Gram matrix for every perturbation: each takes its rows of it
-                Gk, bk = G[:, rows[:, :, None], rows[:, None, :]], b[:, rows]
+            if self.linear:
+                Gk, bk = (G, b) if b.ndim == 2 else (G[:, k], b[:, k])
+                for c in range(C):
+                    A[c, k, rows] = self._linear_scales(Gk[c], bk[c], rows, c)
             else:
-                Gk = G[:, np.arange(K)[:, None, None], rows[:, :, None], rows[:, None, :]]
-                bk = b[:, np.arange(K)[:, None], rows]
-            A[at] = self._linear_scales(Gk, bk)
-        else:
-            for k, (_, up) in enumerate([(None, u), *perturbed]):
                 _, mags = self.params_of(up)
                 for l, lobe in enumerate(self.material.lobes):
-                    A[lobe.channel, k, rows[k, l]] = mags[l]
+                    A[lobe.channel, k, rows[l]] = mags[l]
         return A
 
-    def _linear_scales(self, G: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Every channel's and perturbation's scaling factors of the lobes, (C, K, L) from the
-        lobes' Gram matrices (C, K, L, L) and right-hand sides (C, K, L): NNLS, but a lobe that
-        carries its own magnitude (model.scaled False) keeps its scale and the others fit what
-        it leaves."""
-        lobes = self.material.lobes
-        held = [l for l, lobe in enumerate(lobes) if not lobe.model.scaled]
+    def _linear_scales(self, G: np.ndarray, b: np.ndarray, rows: list[int], channel: int) -> np.ndarray:
+        """One channel's scaling factors of the lobes on `rows`: NNLS, but a lobe that carries
+        its own magnitude (model.scaled False) keeps its scale and the others fit what it leaves."""
+        held = [l for l, lobe in enumerate(self.material.lobes) if not lobe.model.scaled]
         if not held:
-            return nnls_normal(G, b)
-        C = b.shape[0]
-        out = np.empty(b.shape)
-        out[..., held] = np.array([[lobes[l].scale[c] for l in held] for c in range(C)])[:, None, :]
-        free = [l for l in range(len(lobes)) if l not in held]
+            return _nnls(G[np.ix_(rows, rows)], b[rows])
+        out = np.empty(len(rows))
+        fixed = [rows[l] for l in held]
+        out[held] = [self.material.lobes[l].scale[channel] for l in held]
+        free = [l for l in range(len(rows)) if l not in held]
         if free:
-            rest = b[..., free] - np.einsum("ckfh,ckh->ckf", G[..., free, :][..., held], out[..., held])
-            out[..., free] = nnls_normal(G[..., free, :][..., free], rest)
+            free_rows = [rows[l] for l in free]
+            out[free] = _nnls(G[np.ix_(free_rows, free_rows)], b[free_rows] - G[np.ix_(free_rows, fixed)] @ out[held])
         return out
 
     def evaluate(self, u: np.ndarray, with_jacobian: bool = True):
@@ -654,6 +645,19 @@ def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray | None:
     except np.linalg.LinAlgError:
         return None
     return x if np.all(np.isfinite(x)) else None
+
+
+def _nnls(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """min ‖R s − z‖ with s ≥ 0 where RᵀR = G, Rᵀz = b (the normal equations of the
+    weighted least-squares problem, solved without forming it)."""
+    n = G.shape[0]
+    jitter = 1e-13 * max(np.trace(G), 1e-300)
+    try:
+        R = np.linalg.cholesky(G + jitter * np.eye(n)).T
+    except np.linalg.LinAlgError:
+        return np.zeros(n)
+    z = np.linalg.solve(R.T, b)
+    return nnls(R, z, max_iterations=50 * n)
 
 
 # --- Levenberg–Marquardt ----------------------------------------------------------------------
