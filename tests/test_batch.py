@@ -123,6 +123,15 @@ def test_rerun_skips_done_work_and_redoes_changed_files(tmp_path, cluster):
     assert (again["ran"], again["skipped"]) == (0, 2)
     assert (tmp_path / "out" / "results.csv").read_bytes() == csv_before
 
+    # a folder written before keys had their prefix (the bare digest, in the table and the XML):
+    # its pairs are still done, and no second row or fit is added beside the old ones
+    for path in [tmp_path / "out" / "results.csv", *(tmp_path / "out" / "fits").glob("*.xml")]:
+        path.write_text(path.read_text().replace("pair-", ""))
+    (tmp_path / "out" / "results.parquet").unlink()
+    old = summary_of(batch_cli(tmp_path, *args))
+    assert (old["ran"], old["skipped"]) == (0, 2)
+    assert len(pd.read_csv(tmp_path / "out" / "results.csv")) == 2
+
     shutil.copy(SLICES / "nickel.slice", data / "brass.slice")  # new content under the same name
     third = summary_of(batch_cli(tmp_path, *args, "--lobes", "Lambertian,Ward"))
     assert (third["ran"], third["skipped"]) == (3, 1)  # brass twice (changed, new set), pvc with the new set
@@ -259,13 +268,13 @@ def test_two_batches_into_one_folder_keep_each_others_rows(tmp_path):
 
     tasks = [SimpleNamespace(source=s, sha256="0" * 64) for s in ("a", "b")]
     first, second = Recorder(tmp_path, tasks, print), Recorder(tmp_path, tasks, print)
-    first.add([outcome("a")])
-    second.add([outcome("b")])
+    first.add([outcome("pair-a")])
+    second.add([outcome("pair-b")])
     first.flush()
     second.flush()
-    first.add([outcome("a")])  # a later result of the first batch keeps the second's row too
+    first.add([outcome("pair-a")])  # a later result of the first batch keeps the second's row too
     first.flush()
-    assert sorted(ResultsTable.load(tmp_path).rows) == ["a", "b"]
+    assert sorted(ResultsTable.load(tmp_path).rows) == ["pair-a", "pair-b"]
     assert len(pd.read_csv(tmp_path / "results.csv")) == 2
 
 
@@ -276,8 +285,8 @@ def test_a_table_saved_before_the_image_error_column_still_loads(tmp_path):
     row = {c: "" for c in old} | {"key": "k1", "error": "0.25", "pid": "1", "seconds": "1", "iterations": "3",
                                   "evaluations": "4", "status": "converged"}
     pd.DataFrame([row], columns=old).to_csv(tmp_path / "results.csv", index=False)
-    table = ResultsTable.load(tmp_path)
-    assert table.rows["k1"]["error"] == 0.25 and np.isnan(table.rows["k1"]["image_error"])
+    table = ResultsTable.load(tmp_path)  # its key, from before keys had their prefix, is read as today's
+    assert table.rows["pair-k1"]["error"] == 0.25 and np.isnan(table.rows["pair-k1"]["image_error"])
 
 
 def test_a_stored_fit_is_found_again_whatever_its_key_digests_to(tmp_path):

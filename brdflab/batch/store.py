@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+from brdflab.batch.tasks import stored_key
 from brdflab.io.xmlio import BRDFDocument, Fitting, MeasuredReference, load, save
 from brdflab.sources.files import is_xml
 
@@ -37,9 +38,11 @@ class FitStore:
                 warn(f"{path}: ignored ({e})")
                 continue
             for fitting in doc.fittings:
-                key = fitting.statistics.get(KEY)
-                if key and str(key) not in self.own:
-                    self.fittings[str(key)] = fitting
+                if fitting.statistics.get(KEY) in (None, ""):
+                    continue
+                key = fitting.statistics[KEY] = stored_key(fitting.statistics[KEY])
+                if key not in self.own:
+                    self.fittings[key] = fitting
             if isinstance(doc.material, MeasuredReference) and doc.path is not None:
                 source = str(doc.material.path.resolve())
                 self.source_types.setdefault(source, doc.material.type)

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from brdflab.batch.tasks import stored_key
 from brdflab.errors import BRDFLabError
 from brdflab.io.atomic import atomic_write
 
@@ -78,4 +79,7 @@ def _saved_rows(folder: Path) -> dict[str, dict]:
             frame[column] = pd.to_numeric(frame[column], errors="coerce") if column in frame else float("nan")
     except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as e:
         raise BRDFLabError(f"not a batch results table: {e}", path) from None
-    return {row["key"]: row for row in frame[COLUMNS].to_dict("records")}
+    rows = frame[COLUMNS].to_dict("records")
+    for row in rows:
+        row["key"] = stored_key(row["key"])
+    return {row["key"]: row for row in rows}

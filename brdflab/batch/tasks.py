@@ -25,6 +25,15 @@ M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (mallo
 
 
 AUTO_LABEL = "auto"  # the lobes column of an Auto task (the pick is in its parameters and message)
+KEY_PREFIX = "pair-"
+
+
+def stored_key(value) -> str:
+    """A pair key as a table or an XML file kept it: those written before keys had their
+    prefix hold the same digest alone (an all-digit one read back as a number), so a rerun
+    still finds their pairs done instead of fitting them again beside the old rows."""
+    key = str(value)
+    return key if key.startswith(KEY_PREFIX) else KEY_PREFIX + key
 
 
 @dataclass(frozen=True)
@@ -57,7 +66,7 @@ class FitTask:
         Never a number: a digest of digits alone would be read back from the XML's statistics or
         the table as one (and lose its leading zeros), so the fit would not be found again."""
         text = json.dumps([self.source, self.lobe_label, self.options_json])
-        return "pair-" + hashlib.sha256(text.encode()).hexdigest()[:20]
+        return KEY_PREFIX + hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
 @dataclass
