@@ -179,7 +179,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from brdflab.fitting.stored import append_fitting, document_for, initial_material
     from brdflab.fitting.image_metric import fit_target
     from brdflab.fitting.samples import MAX_DENSITY, samples_of
-    from brdflab.fitting.second_error import describe, second_error
+    from brdflab.fitting.second_error import describe
     from brdflab.sources.files import load_source
     from brdflab.io.xmlio import check_savable, save
 
@@ -245,12 +245,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGINT, previous)
         if show:
             print(file=sys.stderr)
-    unmeasured = False  # Ctrl-C while the second error was measured: the fit is kept without it
-    if result.status not in STOPPED:  # a fit stopped by --time-limit or Ctrl-C ends now, without it
-        try:
-            result.second = second_error(result.material, source, samples, maps)
-        except KeyboardInterrupt:
-            unmeasured = True
+    # a fit stopped by --time-limit or Ctrl-C ends now, without its second error
+    measured = result.status in STOPPED or _measure_second(result, source, samples, maps)
     payload = {**result.as_dict(), "samples": samples.size, "source": str(source_path)}
     if args.out:
         doc = document_for(source_path, source)
@@ -268,12 +264,26 @@ def cmd_fit(args: argparse.Namespace) -> int:
         saved = f"; the best parameters so far are saved in {args.out}" if args.out else ""
         print(f"brdflab fit: interrupted{saved}", file=sys.stderr)
         return 130
-    if unmeasured:
-        saved = f"; the fit is saved in {args.out} without it" if args.out else ""
-        print(f"brdflab fit: interrupted while its {'sample' if args.metric == 'image' else 'image'} error was "
-              f"measured{saved}", file=sys.stderr)
-        return 130
-    return 0
+    return 0 if measured else _interrupted_second(args, "the fit")
+
+
+def _measure_second(result, source, fitted, maps=None) -> bool:
+    """Fill in the number the fit was not judged by (`second_error`: seconds on a full table);
+    False where Ctrl-C stopped that: the fit is kept without it, not lost."""
+    from brdflab.fitting.second_error import second_error
+
+    try:
+        result.second = second_error(result.material, source, fitted, maps)
+    except KeyboardInterrupt:
+        return False
+    return True
+
+
+def _interrupted_second(args: argparse.Namespace, what: str) -> int:
+    saved = f"; {what} is saved in {args.out} without it" if args.out else ""
+    print(f"brdflab fit: interrupted while its {'sample' if args.metric == 'image' else 'image'} error was "
+          f"measured{saved}", file=sys.stderr)
+    return 130
 
 
 def _image_maps(args: argparse.Namespace) -> list | None:
@@ -313,7 +323,7 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
     from brdflab.fitting.auto import DEFAULT_SPLIT, DEFAULT_TOLERANCE, auto_fit, chosen_fit, validate_tolerance
     from brdflab.fitting.lm import FitOptions
     from brdflab.fitting.samples import samples_of
-    from brdflab.fitting.second_error import describe, second_error
+    from brdflab.fitting.second_error import describe
     from brdflab.fitting.stored import document_for
     from brdflab.io.xmlio import check_savable
     from brdflab.models import get_model
@@ -340,8 +350,7 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
     samples = samples_of(source)
     ladder = auto_fit(samples, tolerance, args.metric, {"linear": "Linear", "fixed": "Fixed"}[args.combination],
                       split=args.size or DEFAULT_SPLIT, models=models, options=options, progress=progress)
-    if ladder.chosen.result is not None:
-        ladder.chosen.result.second = second_error(ladder.chosen.result.material, source, samples)
+    measured = ladder.chosen.result is None or _measure_second(ladder.chosen.result, source, samples)
     chosen = chosen_fit(ladder)
     payload = {**ladder.as_dict(), "source": str(source_path), "fit": chosen.as_dict()}
     _store_pick(args, source_path, source, ladder, payload)
@@ -354,7 +363,7 @@ def _fit_auto(args: argparse.Namespace, source_path: Path) -> int:
     if args.out:
         lines.append(f"stored the chosen fit in {args.out}")
     _emit(args, payload, "\n".join(lines))
-    return 0
+    return 0 if measured else _interrupted_second(args, "the pick")
 
 
 def _store_pick(args: argparse.Namespace, source_path: Path, source, ladder, payload: dict) -> None:
@@ -392,7 +401,7 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
     from brdflab.fitting.image_metric import SceneImages
     from brdflab.fitting.lm import FitOptions
     from brdflab.fitting.scene_auto import DEFAULT_SCENE_TOLERANCE, scene_auto, validate_scene_tolerance
-    from brdflab.fitting.second_error import describe, second_error
+    from brdflab.fitting.second_error import describe
     from brdflab.fitting.stored import document_for
     from brdflab.io.xmlio import check_savable
     from brdflab.models import get_model
@@ -429,7 +438,7 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
     ladder = scene_auto(scene, tolerance, {"linear": "Linear", "fixed": "Fixed"}[args.combination], models=models,
                         options=options, progress=progress)
     chosen = ladder.chosen.result
-    chosen.second = second_error(chosen.material, source, scene)
+    measured = _measure_second(chosen, source, scene)
     payload = {**ladder.as_dict(), "maps": [q.name for q in scene.quadratures], "mesh": args.mesh,
                "source": str(source_path),
                "fit": chosen.as_dict()}
@@ -442,7 +451,7 @@ def _fit_scene_auto(args: argparse.Namespace, source_path: Path) -> int:
     if args.out:
         lines.append(f"stored the chosen fit in {args.out}")
     _emit(args, payload, "\n".join(lines))
-    return 0
+    return 0 if measured else _interrupted_second(args, "the pick")
 
 
 def cmd_batch(args: argparse.Namespace) -> int:

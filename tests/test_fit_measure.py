@@ -208,20 +208,27 @@ def test_time_limit_stops_within_a_few_passes_and_ctrl_c_saves_the_best(tmp_path
 
 
 @needs_shared("merl_slices", "pvc.slice")
-def test_ctrl_c_while_the_second_error_is_measured_keeps_the_finished_fit(tmp_path, capsys, monkeypatch):
-    """A fit that has ended is measured once more, in the image (seconds on a full table); Ctrl-C
-    there used to lose the whole fit ("interrupted", nothing saved)."""
-    import brdflab.fitting.second_error as second
+@pytest.mark.parametrize("argv, what, second", [
+    (["--lobes", "Lambertian,CookTorrance"], "the fit", "image"),
+    (["--auto", "--models", "CookTorrance", "--size", "2000"], "the pick", "image"),
+    (["--auto", "--env", str(DATA / "envmaps" / "forest.exr"), "--models", "CookTorrance", "--tolerance", "0.5"],
+     "the pick", "sample"),
+], ids=["fit", "auto", "scene-auto"])
+def test_ctrl_c_while_the_second_error_is_measured_keeps_the_finished_fit(tmp_path, capsys, monkeypatch, argv, what,
+                                                                          second):
+    """A fit (or Auto's pick) that has ended is measured once more by the other metric (seconds
+    on a full table); Ctrl-C there used to lose the whole fit, or a climb of minutes
+    ("interrupted", nothing saved)."""
+    import brdflab.fitting.second_error as second_error
 
     def pressed(*_, **__):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(second, "second_error", pressed)
+    monkeypatch.setattr(second_error, "second_error", pressed)
     out = tmp_path / "fit.xml"
-    code = main(["fit", str(DATA / "merl_slices" / "pvc.slice"), "--lobes", "Lambertian,CookTorrance",
-                 "--out", str(out)])
+    code = main(["fit", str(DATA / "merl_slices" / "pvc.slice"), *argv, "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 130 and "Traceback" not in err
-    assert f"interrupted while its image error was measured; the fit is saved in {out} without it" in err
+    assert f"interrupted while its {second} error was measured; {what} is saved in {out} without it" in err
     stats = load(out).fittings[0].statistics
-    assert stats["status"] == "converged" and "imageError" not in stats
+    assert stats["status"] == "converged" and not {"imageError", "sampleError"} & set(stats)
