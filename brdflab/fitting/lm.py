@@ -309,9 +309,9 @@ class _Prepared:
     wo: np.ndarray
     y: np.ndarray
     weight: np.ndarray
-    channel_weight: list
+    channel_weight: list  # the weight itself for every channel where nothing is compressed
     yy: np.ndarray
-    plain_yy: np.ndarray
+    plain_yy: np.ndarray | None  # without compression: only where there is one
     norm: float
 
 
@@ -404,9 +404,12 @@ class _Problem:
         inside = weight > 0.0  # samples outside the metric's domain cost nothing
         if not inside.all():
             wi, wo, y, weight = wi[inside], wo[inside], y[inside], weight[inside]
-        channel_weight = [weight * self._compression_weight(y[:, c]) for c in range(y.shape[1])]
-        yy = np.array([np.einsum("n,n->", wc, y[:, c] ** 2) for c, wc in enumerate(channel_weight)])  # not `@`: OpenBLAS threads 1-D dots badly
-        plain_yy = np.array([np.einsum("n,n->", weight, y[:, c] ** 2) for c in range(y.shape[1])])
+        C = y.shape[1]
+        compressed = self.options.compression != "none"
+        channel_weight = [weight * self._compression_weight(y[:, c]) for c in range(C)] if compressed else [weight] * C
+        # not `@`: OpenBLAS threads 1-D dots badly
+        yy = np.array([np.einsum("n,n->", wc, y[:, c] ** 2) for c, wc in enumerate(channel_weight)])
+        plain_yy = np.array([np.einsum("n,n->", weight, y[:, c] ** 2) for c in range(C)]) if compressed else None
         return _Prepared(wi, wo, y, weight, channel_weight, yy, plain_yy, norm)
 
     def _prepared_chunks(self):
@@ -447,7 +450,7 @@ class _Problem:
                 Eb = Ec[:L] * chunk.weight
                 plain[c] = Eb @ Ec[:L].T
                 plain_b[c] = Eb @ y[:, c]
-        return G, b, chunk.yy, plain, plain_b, chunk.plain_yy if plain is not None else None, chunk.norm
+        return G, b, chunk.yy, plain, plain_b, chunk.plain_yy, chunk.norm
 
     def _metric_weight(self, wi, wo, w, cosine: bool = True) -> np.ndarray:
         return sample_weight(self.options.metric, wi, wo, w, cosine)
