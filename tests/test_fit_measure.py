@@ -151,10 +151,10 @@ def big_table(tmp_path_factory):
     return path
 
 
-def run_fit(args, cwd):
+def run_fit(args, cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.Popen([sys.executable, "-m", "brdflab", "fit", *args], cwd=cwd, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=stdout, stderr=stderr, text=True)
 
 
 def _interrupted_at_progress(args, cwd) -> tuple[int, str]:
@@ -164,9 +164,7 @@ def _interrupted_at_progress(args, cwd) -> tuple[int, str]:
     import select
 
     master, slave = pty.openpty()
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "-m", "brdflab", "fit", *args], cwd=cwd, env=env,
-                            stdout=subprocess.DEVNULL, stderr=slave)
+    proc = run_fit(args, cwd, stdout=subprocess.DEVNULL, stderr=slave)
     os.close(slave)
     text, sent = b"", False
     while True:
