@@ -1,0 +1,306 @@
+"""What would bring MIS to 2 % per pixel at 64 samples (issue 36 goal 2)? Candidate variance
+reductions measured in NumPy before any is built into the shader.
+
+    python benchmarks/mis_variance_reduction.py [--json docs/bench/mis_variance_reduction.json]
+
+Every estimator here is the MIS twin's (`auto_twins`: the renderer's 64-sample set, half from the
+lobes and half from the map, each pixel's own Cranley–Patterson shift, the power heuristic, the map
+texel by texel); only the map's strategy, the lobe's sampler or the integrand changes:
+
+- `today`: the map drawn by its luminance (`environment_distribution`), as the renderer does;
+- `product exact`: the map drawn by luminance × max(0, n·ω) for each pixel's own normal n, texel
+  by texel — the best a product of the map and the cosine can do (it needs a table per pixel);
+- `bins K²`: the same product for K² normals fixed in advance (an octahedral grid), over cells of
+  32 × 16 of the map (a cell's cosine at its centre, + 0.05 so the pixel's own hemisphere is
+  covered where its bin's is not), the texel inside a cell drawn by luminance: what a shader can
+  hold in tables;
+- `pixel cells R`: each pixel's own normal over cells of 2R × R (a table a shader would build per
+  pixel);
+- `SH control L`: the map's order-L projection as a control variate: its integral through the
+  lobe by the subdivided quadrature (exact, so the estimate stays unbiased), Monte Carlo only for
+  f·cos·(L − L_SH);
+- `VNDF`: GGX's half vectors drawn from the visible normals (Heitz 2018) instead of D cos θh.
+
+Scored as the lab scores lighting: the reference view at 32², maps at 128 × 64, the RMS of each
+pixel's relative error in luminance against the subdivided texel quadrature
+(`refined_environment_image`). Only the tuning maps of `lighting.synthetic_maps` are used: the
+held-out third stays for the check of whatever is built from this.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from brdflab.geometry.sampling import ggx_d, half_vector_pdf, reflect
+from brdflab.lighting import auto_twins as twins
+from brdflab.lighting import sh
+from brdflab.lighting.env_sampling import LUMINANCE, environment_distribution
+from brdflab.lighting.envmap import EnvironmentMap, constant, texel_of
+from brdflab.lighting.reference_view import pixel_relative_rmse, refined_environment_image, sphere_view
+from brdflab.lighting.sampling_sets import mis_sample_set, pixel_shifts, sample_set
+from brdflab.lighting.synthetic_maps import catalogue
+from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.models.cook_torrance import CookTorranceGGX, smith_ggx_g1
+
+SIZE, SAMPLES, MAP_SIZE = 32, 64, (128, 64)
+MAPS = ("overcast", "clear-noon-sky", "sun-high-small", "room-lamps", "city-night", "studio-two-boxes")
+
+
+def lobe(model: str, **params: float) -> AnalyticMaterial:
+    return AnalyticMaterial(model, "Linear", 3, [Lobe.create(model, [0.5] * 3, **params)])
+
+
+MATERIALS = {"Lambertian": lambda: lobe("Lambertian"), "GGX m=0.3": lambda: lobe("CookTorranceGGX", m=0.3, F0=1.0),
+             "GGX m=0.1": lambda: lobe("CookTorranceGGX", m=0.1, F0=1.0)}
+
+
+# --- map strategies: sample(u (P, n, 2)) → world (P, n, 3); pdf(world (P, n, 3)) → (P, n) -------
+
+class Luminance:
+    def __init__(self, dist) -> None:
+        self.dist = dist
+
+    def sample(self, u):
+        return self.dist.sample(u.reshape(-1, 2)).reshape(*u.shape[:2], 3)
+
+    def pdf(self, world):
+        return self.dist.pdf(world)
+
+
+def _invert_rows(cdf: np.ndarray, u: np.ndarray, lowest: np.ndarray | float = 0.0):
+    """Each row's inverse of a rising CDF (values at bins' upper edges): bin and fraction."""
+    index = np.minimum((cdf <= u[:, None]).sum(1), cdf.shape[1] - 1)
+    rows = np.arange(len(u))
+    lower = np.maximum(np.where(index > 0, cdf[rows, np.maximum(index - 1, 0)], 0.0), lowest)
+    width = cdf[rows, index] - lower
+    return index, np.clip((u - lower) / np.where(width > 0, width, 1.0), 0.0, 1.0)
+
+
+def _direction(row, col, t_row, t_col, height, width):
+    top, bottom = np.cos(np.pi * row / height), np.cos(np.pi * (row + 1) / height)
+    cos_t = top + t_row * (bottom - top)
+    sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t**2))
+    phi = ((col + t_col) / width - 0.5) * 2.0 * np.pi
+    return np.stack([sin_t * np.sin(phi), cos_t, -sin_t * np.cos(phi)], -1)
+
+
+class ExactProduct:
+    """Luminance × max(0, n·ω) per pixel, piecewise constant per texel (cosine at its centre)."""
+
+    def __init__(self, env: EnvironmentMap, normals: np.ndarray) -> None:
+        self.h, self.w = env.height, env.width
+        d, omega = env.texel_directions()
+        self.omega = np.broadcast_to(omega, (self.h, self.w)).ravel()
+        weight = (np.maximum(env.data.astype(float) @ LUMINANCE, 0.0).ravel() * self.omega)[None] \
+            * np.maximum(normals @ d.reshape(-1, 3).T, 0.0)
+        weight /= weight.sum(1, keepdims=True)
+        self.cdf, self.density = np.cumsum(weight, 1), weight / self.omega
+
+    def sample(self, u):
+        pixels, n, _ = u.shape
+        cdf = np.repeat(self.cdf, n, axis=0)
+        index, t = _invert_rows(cdf, u[..., 0].ravel())
+        return _direction(index // self.w, index % self.w, u[..., 1].ravel(), t, self.h, self.w).reshape(pixels, n, 3)
+
+    def pdf(self, world):
+        r, c = texel_of(world, self.h, self.w)
+        return np.take_along_axis(self.density, r * self.w + c, 1)
+
+
+def octahedral_normals(k: int) -> np.ndarray:
+    g = (np.arange(k) + 0.5) / k * 2.0 - 1.0
+    x, y = np.meshgrid(g, g, indexing="ij")
+    z = 1.0 - np.abs(x) - np.abs(y)
+    fold = np.maximum(-z, 0.0)
+    v = np.stack([x - np.sign(x) * fold, y - np.sign(y) * fold, z], -1).reshape(-1, 3)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def octahedral_bin(n: np.ndarray, k: int) -> np.ndarray:
+    v = n / np.abs(n).sum(-1, keepdims=True)
+    x, y, z = v[:, 0], v[:, 1], v[:, 2]
+    xo = np.where(z < 0, (1.0 - np.abs(y)) * np.where(x >= 0, 1.0, -1.0), x)
+    yo = np.where(z < 0, (1.0 - np.abs(x)) * np.where(y >= 0, 1.0, -1.0), y)
+    q = np.clip(((np.stack([xo, yo], -1) * 0.5 + 0.5) * k).astype(int), 0, k - 1)
+    return q[:, 0] * k + q[:, 1]
+
+
+class CellProduct:
+    """Luminance × (max(0, n_b·cell centre) + floor) over coarse cells, one table per normal n_b
+    (`normals`, each pixel reading table `bins[p]`); inside a cell a texel by luminance, from the
+    map's own tables (`environment_distribution`)."""
+
+    def __init__(self, env: EnvironmentMap, dist, normals: np.ndarray, bins: np.ndarray, rows: int = 32,
+                 floor: float = 0.05) -> None:
+        self.dist, self.bins = dist, bins
+        h, w = env.height, env.width
+        self.hc, self.wc = min(rows, h), 2 * min(rows, h)
+        self.fy, self.fx = h // self.hc, w // self.wc
+        row_share = np.diff(np.concatenate([[0.0], dist.marginal]))
+        self.cond = np.concatenate([np.zeros((h, 1)), dist.conditional], 1)
+        self.segment = row_share[:, None] * (self.cond[:, self.fx::self.fx] - self.cond[:, 0:-1:self.fx])
+        self.cell = self.segment.reshape(self.hc, self.fy, self.wc).sum(1)
+        centres, _ = EnvironmentMap(np.zeros((self.hc, self.wc, 3), np.float32), "cells").texel_directions()
+        weight = self.cell.reshape(1, -1) * (np.maximum(normals @ centres.reshape(-1, 3).T, 0.0) + floor)
+        self.share = (weight / weight.sum(1, keepdims=True)).reshape(-1, self.hc, self.wc)
+        rows_sum = self.share.sum(2)
+        self.marginal = np.cumsum(rows_sum, 1)
+        self.conditional = np.cumsum(self.share, 2) / np.where(rows_sum > 0, rows_sum, 1.0)[..., None]
+
+    def sample(self, u):
+        pixels, n, _ = u.shape
+        b = np.repeat(self.bins, n)
+        ux, uy = u[..., 0].ravel(), u[..., 1].ravel()
+        rc, t1 = _invert_rows(self.marginal[b], ux)
+        cc, s1 = _invert_rows(self.conditional[b, rc], uy)
+        seg = np.cumsum(self.segment[rc[:, None] * self.fy + np.arange(self.fy), cc[:, None]], 1)
+        fr, t2 = _invert_rows(seg / np.where(seg[:, -1:] > 0, seg[:, -1:], 1.0), t1)
+        row = rc * self.fy + fr
+        cols = self.cond[row[:, None], cc[:, None] * self.fx + np.arange(1, self.fx + 1)]
+        start = self.cond[row, cc * self.fx]
+        fc, s2 = _invert_rows(cols, start + s1 * (cols[:, -1] - start), lowest=start)
+        return _direction(row, cc * self.fx + fc, t2, s2, self.dist.height, self.dist.width).reshape(pixels, n, 3)
+
+    def pdf(self, world):
+        r, c = texel_of(world, self.dist.height, self.dist.width)
+        rc, cc = r // self.fy, c // self.fx
+        cell = self.cell[rc, cc]
+        share = self.share[np.broadcast_to(self.bins[:, None], r.shape), rc, cc]
+        return np.where(cell > 0, share * self.dist.density[r, c] / np.where(cell > 0, cell, 1.0), 0.0)
+
+
+# --- the estimator ----------------------------------------------------------------------------
+
+def mis(source, env, frames, strategy, control: EnvironmentMap | None = None) -> np.ndarray:
+    """The MIS twin with `strategy` for the map's half; with `control`, the radiance is the map's
+    less the control's (its integral is added by the caller)."""
+    sampling, shares = twins.renderer_sampling(source, source)
+    data, fractions, env_fraction = mis_sample_set(shares, SAMPLES)
+    pixels = len(frames[0])
+    u = np.mod(data[None, :, :2] + pixel_shifts(np.arange(pixels), np.zeros(pixels))[:, None, :], 1.0)
+    from_map = data[:, 2] < 0
+    wi = twins._lobe_directions(sampling, frames, data, u)
+    wi[:, from_map] = twins._to_local(frames, strategy.sample(u[:, from_map]))
+    world = twins._to_world(frames, wi)
+    p_map = env_fraction * strategy.pdf(world)
+    p_lobes = (1 - env_fraction) * twins.mixture_pdf(sampling, wi, np.broadcast_to(twins._views(frames)[:, None], wi.shape),
+                                                    fractions)
+    own, other = np.where(from_map, p_map, p_lobes), np.where(from_map, p_lobes, p_map)
+    ok = (wi[..., 2] > 0) & (own > 0)
+    own = np.where(ok, own, 1.0)
+    weight = np.where(ok, 1.0 / (1.0 + (other / own) ** 2), 0.0)
+    radiance = env.data.astype(float)[texel_of(world, env.height, env.width)]
+    if control is not None:
+        radiance = radiance - control.data.astype(float)[texel_of(world, control.height, control.width)]
+    return (twins._f_cos(source, frames, wi) * radiance * (weight / own)[..., None]).sum(1) / len(data)
+
+
+def lobes_only(source, env, frames) -> np.ndarray:
+    """All 64 samples from the lobes (no map strategy)."""
+    sampling, shares = twins.renderer_sampling(source, source)
+    data, fractions = sample_set(shares, SAMPLES)
+    pixels = len(frames[0])
+    u = np.mod(data[None, :, :2] + pixel_shifts(np.arange(pixels), np.zeros(pixels))[:, None, :], 1.0)
+    wi = twins._lobe_directions(sampling, frames, data, u)
+    pdf = twins.mixture_pdf(sampling, wi, np.broadcast_to(twins._views(frames)[:, None], wi.shape), fractions)
+    ok = (wi[..., 2] > 0) & (pdf > 0)
+    radiance = env.data.astype(float)[texel_of(twins._to_world(frames, wi), env.height, env.width)]
+    value = twins._f_cos(source, frames, wi) * radiance / np.where(ok, pdf, 1.0)[..., None]
+    return np.where(ok[..., None], value, 0.0).sum(1) / SAMPLES
+
+
+def sh_control(env: EnvironmentMap, order: int) -> EnvironmentMap:
+    """The map's order-L projection, tabulated at 256 × 128 (the control the estimate subtracts)."""
+    grid = EnvironmentMap(np.zeros((128, 256, 3), np.float32), "sh")
+    d, _ = grid.texel_directions()
+    values = sh.evaluate(sh.project_environment(env, order), d.reshape(-1, 3)).reshape(128, 256, 3)
+    return EnvironmentMap(values.astype(np.float32), f"sh{order}")
+
+
+class VisibleNormals:
+    """GGX's sampler swapped for visible-normal sampling (Heitz 2018) while in use."""
+
+    @staticmethod
+    def half(wo, a, u):
+        v = np.stack([a * wo[..., 0], a * wo[..., 1], wo[..., 2]], -1)
+        v /= np.linalg.norm(v, axis=-1, keepdims=True)
+        lensq = v[..., 0] ** 2 + v[..., 1] ** 2
+        inv = 1.0 / np.sqrt(np.maximum(lensq, 1e-30))
+        t1 = np.where((lensq > 0)[..., None], np.stack([-v[..., 1] * inv, v[..., 0] * inv, 0.0 * inv], -1),
+                      np.array([1.0, 0.0, 0.0]))
+        t2 = np.cross(v, t1)
+        r, phi = np.sqrt(u[..., 0]), 2.0 * np.pi * u[..., 1]
+        p1, p2 = r * np.cos(phi), r * np.sin(phi)
+        s = 0.5 * (1.0 + v[..., 2])
+        p2 = (1.0 - s) * np.sqrt(np.maximum(0.0, 1.0 - p1 * p1)) + s * p2
+        nh = p1[..., None] * t1 + p2[..., None] * t2 + np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))[..., None] * v
+        ne = np.stack([a * nh[..., 0], a * nh[..., 1], np.maximum(nh[..., 2], 1e-6)], -1)
+        return ne / np.linalg.norm(ne, axis=-1, keepdims=True)
+
+    def __enter__(self):
+        self.saved = CookTorranceGGX._sample, CookTorranceGGX._pdf
+        CookTorranceGGX._sample = lambda model, wo, u, p: reflect(wo, self.half(wo, p["m"], u))
+        CookTorranceGGX._pdf = lambda model, wi, wo, p: half_vector_pdf(
+            wi, wo, lambda h: ggx_d(h, p["m"]) * smith_ggx_g1(wo[..., 2], p["m"]) * np.maximum(0.0, (h * wo).sum(-1))
+            / np.maximum(wo[..., 2], 1e-9))
+        return self
+
+    def __exit__(self, *exc):
+        CookTorranceGGX._sample, CookTorranceGGX._pdf = self.saved
+
+
+def measure() -> dict:
+    view = sphere_view(SIZE, SIZE)
+    inside = view.inside
+    frames = (view.normal[inside], view.tangent[inside], view.bitangent[inside])
+    held_out = {m.name for m in catalogue(held_out=True)}
+    assert not held_out & set(MAPS), "a held-out map in the tuning set"
+    rows = []
+    maps = [("constant", constant(1.0, *MAP_SIZE))] + [(m.name, m.build(*MAP_SIZE)) for m in catalogue() if m.name in MAPS]
+    for name, env in maps:
+        dist = environment_distribution(env)
+        normals = frames[0]
+        strategies = {"today": Luminance(dist), "product exact": ExactProduct(env, normals)}
+        for k in (8, 16):
+            strategies[f"bins {k}²"] = CellProduct(env, dist, octahedral_normals(k), octahedral_bin(normals, k))
+        for r in (16, 32):
+            strategies[f"pixel cells {r}"] = CellProduct(env, dist, normals, np.arange(len(normals)), rows=r)
+        controls = {order: sh_control(env, order) for order in (2, 4)} if name != "constant" else {}
+        for material, make in MATERIALS.items():
+            source = make()
+            reference = refined_environment_image(source, env, SIZE, SIZE)
+
+            def score(values, base=None):
+                image = np.zeros_like(reference) if base is None else base.copy()
+                image[inside] += values
+                return round(100 * pixel_relative_rmse(image, reference, inside), 2)
+
+            errors = {key: score(mis(source, env, frames, s)) for key, s in strategies.items()}
+            errors["lobes only"] = score(lobes_only(source, env, frames))
+            for order, control in controls.items():
+                integral = refined_environment_image(source, control, SIZE, SIZE)
+                errors[f"SH control {order}"] = score(mis(source, env, frames, strategies["today"], control), integral)
+            if material.startswith("GGX"):
+                with VisibleNormals():
+                    errors["VNDF"] = score(mis(source, env, frames, strategies["today"]))
+                    errors["VNDF lobes only"] = score(lobes_only(source, env, frames))
+            rows.append({"map": name, "material": material, "errors": errors})
+            print(f"{name:18s} {material:11s} " + "  ".join(f"{k} {v}" for k, v in errors.items()), flush=True)
+    return {"size": SIZE, "samples": SAMPLES, "map_size": MAP_SIZE, "rows": rows}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json")
+    args = ap.parse_args()
+    result = measure()
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=1))
+
+
+if __name__ == "__main__":
+    main()
