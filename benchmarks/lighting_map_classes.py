@@ -2,6 +2,7 @@
 
     python benchmarks/lighting_map_classes.py [--json docs/bench/lighting_map_classes.json]
                                               [--chart docs/images/lighting_map_classes.png]
+                                              [--materials "GGX m=0.3" ...] [--settings "fis 64" ...]
 
 Three materials (a Lambertian; GGX m = 0.3, a rough lobe the prefiltered mode should hold;
 GGX m = 0.1, a narrow one), F0 = 1, under the fifteen synthetic maps (`lighting.synthetic_maps`:
@@ -122,7 +123,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json")
     ap.add_argument("--chart")
+    ap.add_argument("--materials", nargs="+", choices=list(MATERIALS), help="only these materials")
+    ap.add_argument("--settings", nargs="+", help='only these settings ("prefiltered", "sh 4", "fis 64", …)')
     args = ap.parse_args()
+    for name in [k for k in MATERIALS if args.materials and k not in args.materials]:
+        del MATERIALS[name]
+    if args.settings:
+        SETTINGS[:] = [s for s in SETTINGS if label(*s) in args.settings]
     result = measure()
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=1))

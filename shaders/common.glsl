@@ -75,12 +75,19 @@ float ggx_d(vec3 h, float a) {
     return a2 / max(d, TINY);
 }
 
-vec3 ggx_half(float a, vec2 u) {
-    float tan2 = a * a * u.x / max(1.0 - u.x, TINY);
-    float ct = 1.0 / sqrt(1.0 + tan2);
-    float st = sqrt(max(0.0, 1.0 - ct * ct));
-    float phi = 2.0 * PI * u.y;
-    return vec3(st * cos(phi), st * sin(phi), ct);
+// half vectors of the isotropic GGX distribution as seen from wo (Heitz 2018): density
+// G1(wo) max(0, wo·h) D(h) / cos θo, the twin of sampling.ggx_visible_half_vector
+vec3 ggx_visible_half(vec3 wo, float a, vec2 u) {
+    vec3 v = normalize(vec3(a * wo.x, a * wo.y, wo.z));
+    float lensq = v.x * v.x + v.y * v.y;
+    vec3 t1 = lensq > TINY ? vec3(-v.y, v.x, 0.0) * inversesqrt(lensq) : vec3(1.0, 0.0, 0.0);
+    vec3 t2 = cross(v, t1);
+    float r = sqrt(u.x), phi = 2.0 * PI * u.y;
+    float p1 = r * cos(phi), p2 = r * sin(phi);
+    float s = 0.5 * (1.0 + v.z);
+    p2 = (1.0 - s) * sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2;
+    vec3 nh = p1 * t1 + p2 * t2 + sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2)) * v;
+    return normalize(vec3(a * nh.x, a * nh.y, max(nh.z, 1e-6)));
 }
 
 float half_pdf_from(float pdf_h, vec3 wi, vec3 wo) {

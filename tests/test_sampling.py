@@ -92,3 +92,24 @@ def test_pdf_is_positive_wherever_the_lobe_is(model, rng):
     pdf = model.pdf(wi, wo, p)
     significant = f > 1e-6 * f.max()
     assert np.all(pdf[significant] > 0.0)
+
+
+@pytest.mark.parametrize("m", [0.05, 0.3, 0.8])
+def test_ggx_samples_visible_normals_so_no_weight_exceeds_one(m):
+    """GGX draws half vectors from the normals visible from wo (Heitz 2018): with F0 = 1 each
+    sample's weight f cos θi / pdf is G₁(wi) ≤ 1, at grazing views too. Half vectors from D cos θh
+    gave weights G₁(wi) G₁(wo) (wo·h) / (cos θo cos θh), up to several at grazing views: 64 of
+    them over a white map were 3.1 % off per pixel, 0.6 % now (docs/mis.md)."""
+    from brdflab.models.cook_torrance import smith_ggx_g1
+    from brdflab.models.registry import get_model
+
+    ggx = get_model("CookTorranceGGX")
+    params = {"m": m, "F0": 1.0}
+    rng = np.random.default_rng(5)
+    for theta in (0.0, 45.0, 80.0, 89.0):
+        wo = np.broadcast_to(wo_of(theta, 30.0), (20000, 3))
+        wi = ggx.sample(wo, rng.random((20000, 2)), params)
+        up = wi[:, 2] > 0
+        weight = ggx.evaluate(wi[up], wo[up], params) * wi[up, 2] / ggx.pdf(wi[up], wo[up], params)
+        assert weight.max() <= 1.0 + 1e-9, (theta, weight.max())
+        np.testing.assert_allclose(weight, smith_ggx_g1(wi[up, 2], m), rtol=1e-6)

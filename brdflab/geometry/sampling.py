@@ -99,14 +99,26 @@ def beckmann_d(h: np.ndarray, mx, my) -> np.ndarray:
     return np.where(hz > 0.0, np.exp(-e) / (np.pi * mx * my * hz2 * hz2), 0.0)
 
 
-def ggx_half_vector(alpha, u: np.ndarray) -> np.ndarray:
-    """Half vectors with density D_GGX(h) cos θh (Walter et al. 2007)."""
-    a2 = np.asarray(alpha, float) ** 2
-    tan2 = a2 * u[..., 0] / np.maximum(1.0 - u[..., 0], TINY)
-    cos_t = 1.0 / np.sqrt(1.0 + tan2)
-    sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
-    phi = 2.0 * np.pi * u[..., 1]
-    return np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=-1)
+def ggx_visible_half_vector(wo: np.ndarray, alpha, u: np.ndarray) -> np.ndarray:
+    """Half vectors of the isotropic GGX distribution as seen from wo (Heitz 2018, "Sampling the
+    GGX distribution of visible normals"): density G₁(wo) max(0, wo·h) D(h) / cos θo. The
+    estimate's weight f cos θi / pdf is then F·G₂/G₁(wo) ≤ 1 where D cos θh gave weights that
+    grow at grazing views (on a white map 64 samples: 3.1 → 0.6 % per pixel, docs/mis.md)."""
+    a = np.asarray(alpha, float)
+    v = np.stack(np.broadcast_arrays(a * wo[..., 0], a * wo[..., 1], wo[..., 2]), axis=-1)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    lensq = v[..., 0] ** 2 + v[..., 1] ** 2
+    inv = 1.0 / np.sqrt(np.maximum(lensq, TINY))
+    t1 = np.where((lensq > TINY)[..., None], np.stack([-v[..., 1] * inv, v[..., 0] * inv, np.zeros_like(inv)], axis=-1),
+                  np.array([1.0, 0.0, 0.0]))
+    t2 = np.cross(v, t1)
+    r, phi = np.sqrt(u[..., 0]), 2.0 * np.pi * u[..., 1]
+    p1, p2 = r * np.cos(phi), r * np.sin(phi)
+    s = 0.5 * (1.0 + v[..., 2])
+    p2 = (1.0 - s) * np.sqrt(np.maximum(0.0, 1.0 - p1 * p1)) + s * p2
+    nh = p1[..., None] * t1 + p2[..., None] * t2 + np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))[..., None] * v
+    h = np.stack(np.broadcast_arrays(a * nh[..., 0], a * nh[..., 1], np.maximum(nh[..., 2], 1e-6)), axis=-1)
+    return h / np.linalg.norm(h, axis=-1, keepdims=True)
 
 
 def ggx_d(h: np.ndarray, alpha) -> np.ndarray:

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from brdflab.geometry.sampling import beckmann_d, beckmann_half_vector, ggx_d, ggx_half_vector, half_vector_pdf, reflect
-from brdflab.geometry.vec import dot, half_vector, schlick
+from brdflab.geometry.sampling import beckmann_d, beckmann_half_vector, ggx_d, ggx_visible_half_vector, half_vector_pdf, reflect
+from brdflab.geometry.vec import TINY, dot, half_vector, schlick
 from brdflab.models.base import LobeModel, Parameter, SplitSum
 from brdflab.models.registry import register
 
@@ -55,7 +55,7 @@ class CookTorranceGGX(LobeModel):
     summary = "D·G·F(wo·h)/(4 cosθi cosθo) with the GGX D and separable Smith G."
     reference = "Walter et al. 2007 (microfacet models for refraction)"
     starts = _STARTS
-    sampling = "half vector from D(h) cos θh (GGX)"
+    sampling = "visible normals of GGX (Heitz 2018)"
     split_sum_rule = "mirror, GGX α = m (Karis 2013 exactly)"
 
     def split_sum(self, params):
@@ -68,7 +68,9 @@ class CookTorranceGGX(LobeModel):
         return ggx_d(h, a) * g * schlick(p["F0"], dot(wo, h)) / (4.0 * wi[..., 2] * wo[..., 2])
 
     def _sample(self, wo, u, p):
-        return reflect(wo, ggx_half_vector(p["m"], u))
+        return reflect(wo, ggx_visible_half_vector(wo, p["m"], u))
 
     def _pdf(self, wi, wo, p):
-        return half_vector_pdf(wi, wo, lambda h: ggx_d(h, p["m"]) * h[..., 2])
+        cos_o = np.maximum(wo[..., 2], TINY)
+        g1 = smith_ggx_g1(cos_o, p["m"])
+        return half_vector_pdf(wi, wo, lambda h: ggx_d(h, p["m"]) * g1 * np.maximum(dot(wo, h), 0.0) / cos_o)
