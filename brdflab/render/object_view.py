@@ -26,7 +26,7 @@ from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material
 from brdflab.render.tabulated import TabulatedTextures
 from brdflab.lighting.env_sampling import environment_distribution
 from brdflab.lighting.mip_pyramid import solid_angle_mips
-from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set, sample_set
+from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set, pieces_order, sample_set
 from brdflab.lighting.sh_table_auto import AutoTable, known_choice, resolve
 from brdflab.lighting.sh_tables import STANDARD, TableSetting
 
@@ -506,18 +506,18 @@ class ObjectRenderer:
         return self._mesh_vao[key]
 
     def samples_texture(self, n: int, rotation: np.ndarray | None = None, mode: str = "fis",
-                        shuffle: np.random.Generator | None = None) -> tuple[moderngl.Texture, int]:
+                        pieces: np.random.Generator | None = None) -> tuple[moderngl.Texture, int]:
         """The sample set as an RGBA32F texture, SAMPLE_ROW samples per row, so that any
         count fits under GL's texture size limit (and with the exact lobe shares applied);
         for MIS half of it drawn from the map (mis_sample_set). With its size: at least one
-        sample per lobe, so a set may hold more than `n`. `shuffle`: the rows in a random
-        order, so that any run of them is an unbiased part of the set (drawn in pieces)."""
+        sample per lobe, so a set may hold more than `n`. `pieces`: the set will be drawn in
+        pieces, its rows in `pieces_order` so that every run from the first is a spread part of it."""
         if mode == "mis":
             data, fractions, self._env_fraction = mis_sample_set(self._shares, n, rotation)
         else:
             data, fractions = sample_set(self._shares, n, rotation)
-        if shuffle is not None:
-            data = data[shuffle.permutation(len(data))]
+        if pieces is not None:
+            data = data[pieces_order(data, pieces)]
         self._uniforms = {**self._uniforms, "u_lobe_share": fractions.astype(np.float32)}
         rows = -(-len(data) // SAMPLE_ROW)
         limit = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 4096))
@@ -659,12 +659,12 @@ class Progressive:
     def _start_set(self, samples: int) -> None:
         """The next stratified set: `settings.samples` (more if one step asks for more), every
         row drawn and counted (a set holds at least one sample per lobe, so it may have more
-        rows); its filter footprint is every sample so far and its own. Shuffled when it will
-        be drawn in pieces."""
+        rows); its filter footprint is every sample so far and its own. Ordered for drawing in
+        pieces when it will be."""
         r, s = self.renderer, self.settings
         size = max(int(s.samples), int(samples), 1)
         rotation = self._rng.random(2) if self.samples or self._rotate_first else None
-        tex, rows = r.samples_texture(size, rotation, s.mode, shuffle=self._rng if samples < size else None)
+        tex, rows = r.samples_texture(size, rotation, s.mode, pieces=self._rng if samples < size else None)
         self._set, self._drawn = (tex, size, rows, self.samples + rows), 0
 
     def _end_set(self) -> None:
