@@ -19,7 +19,8 @@ texel by texel); only the map's strategy, the lobe's sampler or the integrand ch
 - `SH control L`: the map's order-L projection as a control variate: its integral through the
   lobe by the subdivided quadrature (exact, so the estimate stays unbiased), Monte Carlo only for
   f·cos·(L − L_SH);
-- `VNDF`: GGX's half vectors drawn from the visible normals (Heitz 2018) instead of D cos θh.
+- `VNDF`: GGX's half vectors drawn from the visible normals (Heitz 2018) instead of D cos θh
+  (the lab's sampler since this measurement; the other columns run with the sampler of the time).
 
 Scored as the lab scores lighting: the reference view at 32², maps at 128 × 64, the RMS of each
 pixel's relative error in luminance against the subdivided texel quadrature
@@ -44,7 +45,7 @@ from brdflab.lighting.reference_view import pixel_relative_rmse, refined_environ
 from brdflab.lighting.sampling_sets import mis_sample_set, pixel_shifts, sample_set
 from brdflab.lighting.synthetic_maps import catalogue
 from brdflab.material.analytic import AnalyticMaterial, Lobe
-from brdflab.models.cook_torrance import CookTorranceGGX, smith_ggx_g1
+from brdflab.models.cook_torrance import CookTorranceGGX
 
 SIZE, SAMPLES, MAP_SIZE = 32, 64, (128, 64)
 MAPS = ("overcast", "clear-noon-sky", "sun-high-small", "room-lamps", "city-night", "studio-two-boxes")
@@ -221,32 +222,22 @@ def sh_control(env: EnvironmentMap, order: int) -> EnvironmentMap:
     return EnvironmentMap(values.astype(np.float32), f"sh{order}")
 
 
-class VisibleNormals:
-    """GGX's sampler swapped for visible-normal sampling (Heitz 2018) while in use."""
+class HalfVectorsFromD:
+    """GGX's sampler as it was when this was measured (before 7de08e0 built the visible normals):
+    half vectors with density D(h) cos θh. Every column but `VNDF` runs with it."""
 
     @staticmethod
-    def half(wo, a, u):
-        v = np.stack([a * wo[..., 0], a * wo[..., 1], wo[..., 2]], -1)
-        v /= np.linalg.norm(v, axis=-1, keepdims=True)
-        lensq = v[..., 0] ** 2 + v[..., 1] ** 2
-        inv = 1.0 / np.sqrt(np.maximum(lensq, 1e-30))
-        t1 = np.where((lensq > 0)[..., None], np.stack([-v[..., 1] * inv, v[..., 0] * inv, 0.0 * inv], -1),
-                      np.array([1.0, 0.0, 0.0]))
-        t2 = np.cross(v, t1)
-        r, phi = np.sqrt(u[..., 0]), 2.0 * np.pi * u[..., 1]
-        p1, p2 = r * np.cos(phi), r * np.sin(phi)
-        s = 0.5 * (1.0 + v[..., 2])
-        p2 = (1.0 - s) * np.sqrt(np.maximum(0.0, 1.0 - p1 * p1)) + s * p2
-        nh = p1[..., None] * t1 + p2[..., None] * t2 + np.sqrt(np.maximum(0.0, 1.0 - p1 * p1 - p2 * p2))[..., None] * v
-        ne = np.stack([a * nh[..., 0], a * nh[..., 1], np.maximum(nh[..., 2], 1e-6)], -1)
-        return ne / np.linalg.norm(ne, axis=-1, keepdims=True)
+    def half(alpha, u):
+        tan2 = alpha * alpha * u[..., 0] / np.maximum(1.0 - u[..., 0], 1e-12)
+        cos_t = 1.0 / np.sqrt(1.0 + tan2)
+        sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
+        phi = 2.0 * np.pi * u[..., 1]
+        return np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=-1)
 
     def __enter__(self):
         self.saved = CookTorranceGGX._sample, CookTorranceGGX._pdf
-        CookTorranceGGX._sample = lambda model, wo, u, p: reflect(wo, self.half(wo, p["m"], u))
-        CookTorranceGGX._pdf = lambda model, wi, wo, p: half_vector_pdf(
-            wi, wo, lambda h: ggx_d(h, p["m"]) * smith_ggx_g1(wo[..., 2], p["m"]) * np.maximum(0.0, (h * wo).sum(-1))
-            / np.maximum(wo[..., 2], 1e-9))
+        CookTorranceGGX._sample = lambda model, wo, u, p: reflect(wo, self.half(p["m"], u))
+        CookTorranceGGX._pdf = lambda model, wi, wo, p: half_vector_pdf(wi, wo, lambda h: ggx_d(h, p["m"]) * h[..., 2])
         return self
 
     def __exit__(self, *exc):
@@ -279,15 +270,15 @@ def measure() -> dict:
                 image[inside] += values
                 return round(100 * pixel_relative_rmse(image, reference, inside), 2)
 
-            errors = {key: score(mis(source, env, frames, s)) for key, s in strategies.items()}
-            errors["lobes only"] = score(lobes_only(source, env, frames))
-            for order, control in controls.items():
-                integral = refined_environment_image(source, control, SIZE, SIZE)
-                errors[f"SH control {order}"] = score(mis(source, env, frames, strategies["today"], control), integral)
-            if material.startswith("GGX"):
-                with VisibleNormals():
-                    errors["VNDF"] = score(mis(source, env, frames, strategies["today"]))
-                    errors["VNDF lobes only"] = score(lobes_only(source, env, frames))
+            with HalfVectorsFromD():
+                errors = {key: score(mis(source, env, frames, s)) for key, s in strategies.items()}
+                errors["lobes only"] = score(lobes_only(source, env, frames))
+                for order, control in controls.items():
+                    integral = refined_environment_image(source, control, SIZE, SIZE)
+                    errors[f"SH control {order}"] = score(mis(source, env, frames, strategies["today"], control), integral)
+            if material.startswith("GGX"):  # the lab's own sampler: visible normals
+                errors["VNDF"] = score(mis(source, env, frames, strategies["today"]))
+                errors["VNDF lobes only"] = score(lobes_only(source, env, frames))
             rows.append({"map": name, "material": material, "errors": errors})
             print(f"{name:18s} {material:11s} " + "  ".join(f"{k} {v}" for k, v in errors.items()), flush=True)
     return {"size": SIZE, "samples": SAMPLES, "map_size": MAP_SIZE, "rows": rows}
