@@ -48,6 +48,23 @@ def _own_user_cache(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("BRDFLAB_CACHE", str(tmp_path_factory.mktemp("cache")))
 
 
+@pytest.fixture(autouse=True)
+def _windows_gone_with_their_test(request):
+    """A window closed at a GUI test's end is destroyed when Python collects it, and its GL
+    widgets make their own context current to free their resources, then none: collected
+    later, in another file's test, that left the file's own offscreen context not current
+    ("cannot create texture"; it showed once two workers began taking files in varying
+    orders). So a GUI test's windows are collected and deleted before the next test."""
+    yield
+    if "qtbot" in request.fixturenames:
+        import gc
+
+        from PySide6.QtCore import QCoreApplication, QEvent
+
+        gc.collect()
+        QCoreApplication.sendPostedEvents(None, QEvent.DeferredDelete)
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)
