@@ -39,10 +39,10 @@ import numpy as np
 from brdflab.geometry.sampling import ggx_d, half_vector_pdf, reflect
 from brdflab.lighting import auto_twins as twins
 from brdflab.lighting import sh
-from brdflab.lighting.env_sampling import LUMINANCE, environment_distribution
+from brdflab.lighting.env_sampling import LUMINANCE, environment_distribution, invert_in_rows, texel_point
 from brdflab.lighting.envmap import EnvironmentMap, constant, texel_of
 from brdflab.lighting.reference_view import pixel_relative_rmse, refined_environment_image, sphere_view
-from brdflab.lighting.sampling_sets import mis_sample_set, pixel_shifts, sample_set
+from brdflab.lighting.sampling_sets import pixel_shifts, sample_set
 from brdflab.lighting.synthetic_maps import catalogue
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models.cook_torrance import CookTorranceGGX
@@ -59,34 +59,19 @@ MATERIALS = {"Lambertian": lambda: lobe("Lambertian"), "GGX m=0.3": lambda: lobe
              "GGX m=0.1": lambda: lobe("CookTorranceGGX", m=0.1, F0=1.0)}
 
 
-# --- map strategies: sample(u (P, n, 2)) → world (P, n, 3); pdf(world (P, n, 3)) → (P, n) -------
+# --- map strategies, as `auto_twins.mis_pixels` draws from a map's distribution: sample(u (pixels · n, 2),
+# pixel by pixel) → world (pixels · n, 3); pdf(world (pixels, n, 3)) → (pixels, n). Per-pixel tables
+# read the pixel of each point from its place. -------------------------------------------------------
 
-class Luminance:
-    def __init__(self, dist) -> None:
-        self.dist = dist
-
-    def sample(self, u):
-        return self.dist.sample(u.reshape(-1, 2)).reshape(*u.shape[:2], 3)
-
-    def pdf(self, world):
-        return self.dist.pdf(world)
+def _pixel_of(u: np.ndarray, pixels: int) -> np.ndarray:
+    return np.arange(len(u)) // (len(u) // pixels)
 
 
-def _invert_rows(cdf: np.ndarray, u: np.ndarray, lowest: np.ndarray | float = 0.0):
-    """Each row's inverse of a rising CDF (values at bins' upper edges): bin and fraction."""
-    index = np.minimum((cdf <= u[:, None]).sum(1), cdf.shape[1] - 1)
-    rows = np.arange(len(u))
-    lower = np.maximum(np.where(index > 0, cdf[rows, np.maximum(index - 1, 0)], 0.0), lowest)
-    width = cdf[rows, index] - lower
-    return index, np.clip((u - lower) / np.where(width > 0, width, 1.0), 0.0, 1.0)
-
-
-def _direction(row, col, t_row, t_col, height, width):
-    top, bottom = np.cos(np.pi * row / height), np.cos(np.pi * (row + 1) / height)
-    cos_t = top + t_row * (bottom - top)
-    sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t**2))
-    phi = ((col + t_col) / width - 0.5) * 2.0 * np.pi
-    return np.stack([sin_t * np.sin(phi), cos_t, -sin_t * np.cos(phi)], -1)
+def _rising(cdf: np.ndarray) -> np.ndarray:
+    """CDFs (..., m) ending at 1 exactly (as `environment_distribution`'s), so that rows laid end
+    to end (`invert_in_rows`) never overlap."""
+    cdf[..., -1] = 1.0
+    return cdf
 
 
 class ExactProduct:
@@ -99,13 +84,11 @@ class ExactProduct:
         weight = (np.maximum(env.data.astype(float) @ LUMINANCE, 0.0).ravel() * self.omega)[None] \
             * np.maximum(normals @ d.reshape(-1, 3).T, 0.0)
         weight /= weight.sum(1, keepdims=True)
-        self.cdf, self.density = np.cumsum(weight, 1), weight / self.omega
+        self.cdf, self.density = _rising(np.cumsum(weight, 1)), weight / self.omega
 
     def sample(self, u):
-        pixels, n, _ = u.shape
-        cdf = np.repeat(self.cdf, n, axis=0)
-        index, t = _invert_rows(cdf, u[..., 0].ravel())
-        return _direction(index // self.w, index % self.w, u[..., 1].ravel(), t, self.h, self.w).reshape(pixels, n, 3)
+        index, t = invert_in_rows(self.cdf, _pixel_of(u, len(self.cdf)), u[:, 0])
+        return texel_point(index // self.w, index % self.w, u[:, 1], t, self.h, self.w)
 
     def pdf(self, world):
         r, c = texel_of(world, self.h, self.w)
@@ -149,22 +132,21 @@ class CellProduct:
         weight = self.cell.reshape(1, -1) * (np.maximum(normals @ centres.reshape(-1, 3).T, 0.0) + floor)
         self.share = (weight / weight.sum(1, keepdims=True)).reshape(-1, self.hc, self.wc)
         rows_sum = self.share.sum(2)
-        self.marginal = np.cumsum(rows_sum, 1)
-        self.conditional = np.cumsum(self.share, 2) / np.where(rows_sum > 0, rows_sum, 1.0)[..., None]
+        self.marginal = _rising(np.cumsum(rows_sum, 1))
+        self.conditional = _rising(np.cumsum(self.share, 2) / np.where(rows_sum > 0, rows_sum, 1.0)[..., None])
 
     def sample(self, u):
-        pixels, n, _ = u.shape
-        b = np.repeat(self.bins, n)
-        ux, uy = u[..., 0].ravel(), u[..., 1].ravel()
-        rc, t1 = _invert_rows(self.marginal[b], ux)
-        cc, s1 = _invert_rows(self.conditional[b, rc], uy)
+        b = self.bins[_pixel_of(u, len(self.bins))]
+        every = np.arange(len(u))
+        rc, t1 = invert_in_rows(self.marginal, b, u[:, 0])
+        cc, s1 = invert_in_rows(self.conditional.reshape(-1, self.wc), b * self.hc + rc, u[:, 1])
         seg = np.cumsum(self.segment[rc[:, None] * self.fy + np.arange(self.fy), cc[:, None]], 1)
-        fr, t2 = _invert_rows(seg / np.where(seg[:, -1:] > 0, seg[:, -1:], 1.0), t1)
+        fr, t2 = invert_in_rows(_rising(seg / np.where(seg[:, -1:] > 0, seg[:, -1:], 1.0)), every, t1)
         row = rc * self.fy + fr
-        cols = self.cond[row[:, None], cc[:, None] * self.fx + np.arange(1, self.fx + 1)]
+        cols = self.cond[row[:, None], cc[:, None] * self.fx + np.arange(1, self.fx + 1)]  # up to the cell's edge
         start = self.cond[row, cc * self.fx]
-        fc, s2 = _invert_rows(cols, start + s1 * (cols[:, -1] - start), lowest=start)
-        return _direction(row, cc * self.fx + fc, t2, s2, self.dist.height, self.dist.width).reshape(pixels, n, 3)
+        fc, s2 = invert_in_rows(cols, every, start + s1 * (cols[:, -1] - start), lowest=start)
+        return texel_point(row, cc * self.fx + fc, t2, s2, self.dist.height, self.dist.width)
 
     def pdf(self, world):
         r, c = texel_of(world, self.dist.height, self.dist.width)
@@ -176,28 +158,13 @@ class CellProduct:
 
 # --- the estimator ----------------------------------------------------------------------------
 
-def mis(source, env, frames, strategy, control: EnvironmentMap | None = None) -> np.ndarray:
-    """The MIS twin with `strategy` for the map's half; with `control`, the radiance is the map's
-    less the control's (its integral is added by the caller)."""
-    sampling, shares = twins.renderer_sampling(source, source)
-    data, fractions, env_fraction = mis_sample_set(shares, SAMPLES)
-    pixels = len(frames[0])
-    u = np.mod(data[None, :, :2] + pixel_shifts(np.arange(pixels), np.zeros(pixels))[:, None, :], 1.0)
-    from_map = data[:, 2] < 0
-    wi = twins._lobe_directions(sampling, frames, data, u)
-    wi[:, from_map] = twins._to_local(frames, strategy.sample(u[:, from_map]))
-    world = twins._to_world(frames, wi)
-    p_map = env_fraction * strategy.pdf(world)
-    p_lobes = (1 - env_fraction) * twins.mixture_pdf(sampling, wi, np.broadcast_to(twins._views(frames)[:, None], wi.shape),
-                                                    fractions)
-    own, other = np.where(from_map, p_map, p_lobes), np.where(from_map, p_lobes, p_map)
-    ok = (wi[..., 2] > 0) & (own > 0)
-    own = np.where(ok, own, 1.0)
-    weight = np.where(ok, 1.0 / (1.0 + (other / own) ** 2), 0.0)
-    radiance = env.data.astype(float)[texel_of(world, env.height, env.width)]
+def mis(source, env: EnvironmentMap, frames, strategy, control: EnvironmentMap | None = None) -> np.ndarray:
+    """The MIS twin with `strategy` for the map's half; with `control` (at twice the map's size),
+    the radiance is the map's less the control's (its integral is added by the caller)."""
     if control is not None:
-        radiance = radiance - control.data.astype(float)[texel_of(world, control.height, control.width)]
-    return (twins._f_cos(source, frames, wi) * radiance * (weight / own)[..., None]).sum(1) / len(data)
+        fine = np.repeat(np.repeat(env.data.astype(float), 2, axis=0), 2, axis=1)  # texel of a direction: the same
+        env = EnvironmentMap((fine - control.data).astype(np.float32), "residual")
+    return twins.mis_pixels(source, source, env, strategy, frames, SAMPLES)
 
 
 def lobes_only(source, env, frames) -> np.ndarray:
@@ -215,10 +182,11 @@ def lobes_only(source, env, frames) -> np.ndarray:
 
 
 def sh_control(env: EnvironmentMap, order: int) -> EnvironmentMap:
-    """The map's order-L projection, tabulated at 256 × 128 (the control the estimate subtracts)."""
-    grid = EnvironmentMap(np.zeros((128, 256, 3), np.float32), "sh")
+    """The map's order-L projection, tabulated at twice the map's size (the control the estimate
+    subtracts; `mis` reads the map at the same texels)."""
+    grid = EnvironmentMap(np.zeros((2 * env.height, 2 * env.width, 3), np.float32), "sh")
     d, _ = grid.texel_directions()
-    values = sh.evaluate(sh.project_environment(env, order), d.reshape(-1, 3)).reshape(128, 256, 3)
+    values = sh.evaluate(sh.project_environment(env, order), d.reshape(-1, 3)).reshape(grid.data.shape)
     return EnvironmentMap(values.astype(np.float32), f"sh{order}")
 
 
@@ -255,7 +223,7 @@ def measure() -> dict:
     for name, env in maps:
         dist = environment_distribution(env)
         normals = frames[0]
-        strategies = {"today": Luminance(dist), "product exact": ExactProduct(env, normals)}
+        strategies = {"today": dist, "product exact": ExactProduct(env, normals)}
         for k in (8, 16):
             strategies[f"bins {k}²"] = CellProduct(env, dist, octahedral_normals(k), octahedral_bin(normals, k))
         for r in (16, 32):

@@ -47,17 +47,30 @@ class EnvironmentDistribution:
         """Map directions (n, 3) from uniform points u (n, 2) in [0, 1)²."""
         u = np.asarray(u, float)
         rows, t_row = _invert(self.marginal, u[:, 0])
-        # every row's CDF lies in (0, 1]: offset by the row index they form one rising table
-        offsets = np.arange(self.height)[:, None]
-        flat_cols, t_col = _invert((self.conditional + offsets).ravel(), u[:, 1] + rows, lowest=rows * 1.0)
-        cols = flat_cols - rows * self.width
-        h = self.height
-        cos_top = np.cos(np.pi * rows / h)
-        cos_bottom = np.cos(np.pi * (rows + 1) / h)
-        cos_theta = cos_top + t_row * (cos_bottom - cos_top)
-        sin_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_theta**2))
-        phi = ((cols + t_col) / self.width - 0.5) * 2.0 * np.pi
-        return np.stack([sin_theta * np.sin(phi), cos_theta, -sin_theta * np.cos(phi)], axis=-1)
+        cols, t_col = invert_in_rows(self.conditional, rows, u[:, 1])
+        return texel_point(rows, cols, t_row, t_col, self.height, self.width)
+
+
+def texel_point(rows: np.ndarray, cols: np.ndarray, t_row: np.ndarray, t_col: np.ndarray, height: int,
+                width: int) -> np.ndarray:
+    """Map directions (n, 3) in texels (rows, cols) of a height × width lat-long map, at fractions
+    (t_row, t_col) across them: cos θ and φ linear in them, so uniform fractions give a point
+    uniform in the texel's solid angle."""
+    cos_top = np.cos(np.pi * rows / height)
+    cos_bottom = np.cos(np.pi * (rows + 1) / height)
+    cos_theta = cos_top + t_row * (cos_bottom - cos_top)
+    sin_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_theta**2))
+    phi = ((cols + t_col) / width - 0.5) * 2.0 * np.pi
+    return np.stack([sin_theta * np.sin(phi), cos_theta, -sin_theta * np.cos(phi)], axis=-1)
+
+
+def invert_in_rows(table: np.ndarray, row: np.ndarray, u: np.ndarray,
+                   lowest: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """`_invert` of row `row` of a table of CDFs (R, m), each rising within [0, 1] to 1, at each u:
+    the column and u's fraction across it. Row k offset by k makes the table one rising CDF, so
+    no row is copied per sample. `lowest`: the lower edge of a sample's first possible bin."""
+    flat, t = _invert((table + np.arange(table.shape[0])[:, None]).ravel(), u + row, lowest=row + lowest)
+    return flat - row * table.shape[1], t
 
 
 def _invert(cdf: np.ndarray, u: np.ndarray, lowest: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
