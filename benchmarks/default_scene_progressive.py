@@ -6,10 +6,10 @@
 The scene the window opens on (`main_window._default_scene`): Spot under the Venice sunset map,
 the default material (Lambertian + isotropic Lafortune, BRDFLab's Fig. 2), the object view's
 default camera and lighting (FIS, a set of 256 samples drawn progressively). The window's image
-after k samples is reproduced offscreen with the class the window draws with (`Progressive`: a
-first step of one sample, then the set's rows in the order it draws pieces in; the window's image equals
-this offscreen one, `tests/test_gui_auto_lighting.py`), next to a finished set of k samples and
-MIS. Truth: MIS at 2 × TRUTH samples, two independent images whose difference measures its own
+after k samples drawn is reproduced offscreen with the class the window draws with (`Progressive`:
+a first step of one sample, then the sets' rows in the order it draws pieces in: a finished set of
+PREVIEW first, shown until the set of 256 is complete; the window's image equals this offscreen one,
+`tests/test_gui_auto_lighting.py`), next to a finished set of k samples and MIS. Truth: MIS at 2 × TRUTH samples, two independent images whose difference measures its own
 error (taken out of every score). Score: the RMS over the object's pixels of each pixel's relative
 error in luminance (`reference_view.weighted_pixel_error`, a pixel darker than 1 % of the mean
 counted against that 1 %).
@@ -32,26 +32,30 @@ from brdflab.lighting.env_sampling import LUMINANCE
 from brdflab.lighting.envmap import load_environment
 from brdflab.lighting.reference_view import pixel_relative_rmse, refined_environment_image, sphere_view, weighted_pixel_error
 from brdflab.render.context import create_context
-from brdflab.render.object_view import ObjectRenderer, Progressive, RenderSettings, independent_image
+from brdflab.render.object_view import PREVIEW, ObjectRenderer, Progressive, RenderSettings, independent_image
 from brdflab.workspace import default_material
 
 SIZE = (400, 400)  # about the object view of a 1366 × 740 window
 TARGET = 256  # the window's samples per image (gl_views.ObjectView.settings)
 COUNTS = (16, 32, 64, 128, 256)
+PREVIEW_COUNTS = (PREVIEW + 192, PREVIEW + 256)  # drawn samples while the set of 256 completes after a preview
 TRUTH = 4096
 SPHERE = 64
 
 
 def progressive_images(renderer: ObjectRenderer, settings: RenderSettings) -> dict[int, np.ndarray]:
-    """The window's image (RGB, coverage) each time it has drawn k of its TARGET samples."""
+    """The image the window shows (RGB) each time it has drawn k samples, up to the complete
+    image (TARGET samples, and PREVIEW more where a preview set is drawn first)."""
     image = Progressive(renderer, settings)
     out = {}
     try:
         image.step(1)  # the window's first step lays depth with one sample
-        for k in COUNTS:
-            image.step(k - image.samples)
-            raw = np.frombuffer(image.texture.read(), np.float32).reshape(settings.height, settings.width, 4)[::-1]
-            out[k] = raw[:, :, :3] / image.samples
+        for k in sorted({*COUNTS, *PREVIEW_COUNTS}):
+            while image.drawn < k and not image.complete:
+                image.step(k - image.drawn)  # a step draws within one set
+            if image.drawn == k:
+                raw = np.frombuffer(image.texture.read(), np.float32).reshape(settings.height, settings.width, 4)[::-1]
+                out[k] = raw[:, :, :3] / image.samples
     finally:
         image.release()
     return out

@@ -62,7 +62,7 @@ def test_auto_lighting_draws_the_cores_choice_and_follows_the_material(window, q
     assert_shows_and_draws(qtbot, window, choose_lighting(window.workspace.original(), env, DEFAULT_TOLERANCE))
     # once finished, the window's image is the offscreen render of those settings (whose error
     # the choice predicts), however small the steps it was refined in
-    qtbot.waitUntil(lambda: view.samples_done >= view.settings.samples, timeout=120000)
+    qtbot.waitUntil(lambda: view.image_complete, timeout=120000)
     view.makeCurrent()
     p = view._progressive
     shown = np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)

@@ -25,7 +25,6 @@ from brdflab.render.fence import Fence
 from brdflab.render.lobe_view import LobeViewer
 from brdflab.render.object_view import (
     DIFFERENCE_TICKS,
-    SAMPLED_MODES,
     Display,
     ObjectRenderer,
     RenderSettings,
@@ -492,7 +491,13 @@ class ObjectView(_GLView):
 
     @property
     def samples_done(self) -> int:
-        return 0 if self._progressive is None else self._progressive.samples
+        """Samples drawn for the current image (a long FIS image's preview set included)."""
+        return 0 if self._progressive is None else self._progressive.drawn
+
+    @property
+    def image_complete(self) -> bool:
+        """Whether the image shown is the complete one (`render`'s of the same settings)."""
+        return self._progressive is not None and self._progressive.complete
 
     def _prepared_elsewhere(self) -> bool:
         """SH tables and prefiltered stacks take seconds of NumPy: build what the current mode
@@ -601,7 +606,7 @@ class ObjectView(_GLView):
         if image is self._progressive:  # not restarted meanwhile: show it
             self._dirty = True
             self._advance_frame()
-            if self.settings.mode == "sh" and image.samples >= self._target_samples():
+            if self.settings.mode == "sh" and image.complete:
                 self.ringing.emit(clamped_fraction(image.texture.read()))
         return True
 
@@ -615,8 +620,8 @@ class ObjectView(_GLView):
             settings = RenderSettings(**{**self.settings.__dict__, "width": w, "height": h})
             self._progressive = self.renderer.start_progressive(settings)
             self._progressive_b = self._second_renderer().start_progressive(settings) if self.comparing else None
-        p, target = self._progressive, self._target_samples()
-        if p.samples >= target:
+        p = self._progressive
+        if p.complete:
             tables = self.renderer.tabulated
             if tables.provisional:  # drawn from a file lobe's stand-in tables: again once its own are built
                 if tables.building_done():
@@ -626,16 +631,12 @@ class ObjectView(_GLView):
             return
         if GL_QUEUE.others_waiting(self._owner) or not GL_QUEUE.take(self._owner):
             return  # the timer asks again
-        n = min(self._step_samples, target - p.samples) if p.samples else 1  # a first step also lays depth
+        n = min(self._step_samples, max(1, p.needed - p.drawn)) if p.drawn else 1  # a first step also lays depth
         began = time.perf_counter()
         for image in (p, self._progressive_b):
             if image is not None:
                 image.step(n)
         self._flight = (Fence(self.ctx), p, n, began)
-
-    def _target_samples(self) -> int:
-        """Samples the complete image has: the setting's in sampled modes, else one draw."""
-        return self.settings.samples if self.settings.mode in SAMPLED_MODES else 1
 
     def can_draw(self) -> bool:
         """Drawn images only: samples that have landed, or the background of a blank view."""
@@ -719,10 +720,10 @@ class ObjectView(_GLView):
         self._drawing_difference = other is not None and self.compare == "difference"
         self._difference_pending = None
         compare = self.compare
-        if self._drawing_difference and min(image.samples, other.samples) < self._target_samples():
+        if self._drawing_difference and not (image.complete and other.complete):
             # two images of a few samples each differ by their noise (a third of the pixels
-            # 33 % or more for the first ~10 s): the original is shown until both hold a set
-            self._difference_pending = (min(image.samples, other.samples), self._target_samples())
+            # 33 % or more for the first ~10 s): the original is shown until both are complete
+            self._difference_pending = (min(image.drawn, other.drawn), max(image.needed, other.needed))
             other, compare = None, "off"
         self.display.draw(image, self.exposure, self.reinhard, gamma=self.gamma,
                           environment=self.renderer if lit_by_map else None, other=other,
