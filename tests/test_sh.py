@@ -90,6 +90,29 @@ def test_projection_of_a_constant_map():
     assert np.abs(c[1:]).max() < 1e-5
 
 
+@pytest.mark.parametrize("order", [1, 4, 9, 16])
+def test_projection_equals_the_sum_over_every_texels_gauss_points(order):
+    """The projection sums rows and columns apart (the basis in the map's frame); the sum it
+    stands for, written out: every texel's four Gauss points, the basis at their world
+    directions (`envmap.texel_directions`' convention), times the texel's radiance and weight."""
+    from brdflab.lighting.envmap import uv_to_direction
+
+    h, w = 12, 24
+    env = EnvironmentMap(np.random.default_rng(order).random((h, w, 3)).astype(np.float32) ** 3)
+    g = (np.array([-1.0, 1.0]) / math.sqrt(3.0) + 1.0) / 2.0  # Gauss points within [0, 1]
+    expected = np.zeros((order * order, 3))
+    for gy in g:
+        for gx in g:
+            z0, z1 = np.cos(math.pi * np.arange(h) / h), np.cos(math.pi * (np.arange(h) + 1) / h)
+            z = z0 + gy * (z1 - z0)  # the rule is Gauss in cos θ
+            v = np.arccos(z) / math.pi
+            u = (np.arange(w) + gx) / w
+            d = uv_to_direction(u[None, :], v[:, None])
+            weight = (0.5 * np.abs(z0 - z1))[:, None] * (math.pi / w)  # a quarter of the texel's solid angle
+            expected += np.einsum("rwn,rwc->nc", sh.basis(order, d) * weight[..., None], env.data.astype(float))
+    np.testing.assert_allclose(sh.project_environment(env, order), expected, atol=1e-12 * np.abs(expected).max())
+
+
 def test_bad_orders_and_tables():
     with pytest.raises(BRDFLabError, match="outside 1..16"):
         sh.basis(17, np.array([0, 0, 1.0]))
