@@ -11,7 +11,8 @@ compiles the program, as `study.lighting.frame_ms` does), and per map the time t
 prefiltered stack (what the first prefiltered frame of a map adds; since Auto predicts from a
 material's own layers, choosing no longer builds it). Maps: the default map as the CLI reads
 it, and two synthetic maps (a tuning interior and a held-out sunrise with a tiny sun). Run it
-against another tree (`PYTHONPATH=…`) in the same session to compare before and after.
+against another tree (`PYTHONPATH=…`) in the same session to compare before and after;
+`--repeat N` keeps the best of N timings of each (the machine is shared and noisy).
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ def maps() -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json")
+    ap.add_argument("--repeat", type=int, default=1, help="time each choice this many times and keep the best")
     args = ap.parse_args()
     cache = Path(tempfile.mkdtemp(prefix="brdflab-choose-"))
     os.environ["BRDFLAB_CACHE"] = str(cache)  # the user's own cache is not touched, and starts empty
@@ -66,14 +68,17 @@ def main() -> None:
         print(f"{map_name}: its prefiltered stack builds in {build:.2f} s", flush=True)
         for name in MATERIALS:
             material = load(ROOT / "materials" / f"{name}.xml").material
-            prefilter._CACHE.clear()
-            shutil.rmtree(cache, ignore_errors=True)
-            first = timed(lambda: choose_lighting(material, env))
-            prefilter._CACHE.clear()  # a new process: the stack, if kept, is on disk only
-            seen = timed(lambda: choose_lighting(material, env))
-            t0 = time.perf_counter()
-            choice = choose_lighting(material, env)
-            warm = time.perf_counter() - t0
+            firsts, seens, warms = [], [], []
+            for _ in range(args.repeat):  # the best of each: this machine is shared and noisy
+                prefilter._CACHE.clear()
+                shutil.rmtree(cache, ignore_errors=True)
+                firsts.append(timed(lambda: choose_lighting(material, env)))
+                prefilter._CACHE.clear()  # a new process: the stack, if kept, is on disk only
+                seens.append(timed(lambda: choose_lighting(material, env)))
+                t0 = time.perf_counter()
+                choice = choose_lighting(material, env)
+                warms.append(time.perf_counter() - t0)
+            first, seen, warm = min(firsts), min(seens), min(warms)
             renderer.set_source(material)
             if choice.mode == "sh":
                 renderer.set_sh_order(choice.setting)
