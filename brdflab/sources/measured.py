@@ -175,10 +175,15 @@ def _checked_values(raw: np.ndarray, path: Path, scale=1.0) -> tuple[np.ndarray,
     valid = np.all(raw >= 0.0, axis=0)
     if not valid.any():
         raise BRDFLabError("every sample is negative (nothing was measured)", path)
-    kept = np.where(valid, raw, 0.0)
     scale = np.broadcast_to(np.asarray(scale, float), (raw.shape[0],))
-    _check_peaks(kept.reshape(raw.shape[0], -1).max(axis=1), scale, path)
-    values = (kept * scale.reshape((-1,) + (1,) * (raw.ndim - 1))).astype(np.float32)
+    measured = np.broadcast_to(valid, raw.shape)
+    _check_peaks(np.max(raw.reshape(raw.shape[0], -1), axis=1, where=measured.reshape(raw.shape[0], -1), initial=0.0),
+                 scale, path)
+    # raw × scale in float64, rounded once to float32, unmeasured samples 0, the same values as
+    # before without the two float64 copies of the table they were made through (70 MB for MERL)
+    values = np.empty(raw.shape, np.float32)
+    np.multiply(raw, scale.reshape((-1,) + (1,) * (raw.ndim - 1)), out=values, casting="same_kind")
+    np.copyto(values, 0.0, where=~measured)
     return values, valid
 
 
