@@ -182,7 +182,8 @@ def _checked_values(raw: np.ndarray, path: Path, scale=1.0) -> tuple[np.ndarray,
     # raw × scale in float64, rounded once to float32, unmeasured samples 0, the same values as
     # before without the two float64 copies of the table they were made through (70 MB for MERL)
     values = np.empty(raw.shape, np.float32)
-    np.multiply(raw, scale.reshape((-1,) + (1,) * (raw.ndim - 1)), out=values, casting="same_kind")
+    with np.errstate(over="ignore"):  # only an unmeasured (negative) value can pass float32's range: zeroed next
+        np.multiply(raw, scale.reshape((-1,) + (1,) * (raw.ndim - 1)), out=values, casting="same_kind")
     np.copyto(values, 0.0, where=~measured)
     return values, valid
 
