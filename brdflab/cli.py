@@ -78,14 +78,15 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from brdflab.lighting.map_info import describe_map, is_map_file, summary_line
+    from brdflab.lighting.map_info import SEPARATION_DEG, describe_map, is_map_file, summary_line
     from brdflab.sources.files import describe_file
 
     if is_map_file(Path(args.file)):
         info = describe_map(Path(args.file), args.env_layout)
         lines = [summary_line(info)] + [
-            f"  brightest texel {k + 1}: luminance {b['luminance']:.4g} at elevation {b['elevation_deg']:.1f}°, "
-            f"{100 * b['share_of_light']:.2f} % of the light" for k, b in enumerate(info["map"]["brightest"])]
+            f"  bright spot {k + 1}: luminance {b['luminance']:.4g} at elevation {b['elevation_deg']:.1f}°, "
+            f"azimuth {b['azimuth_deg']:.1f}°; {100 * b['share_nearby']:.1f} % of the light within {SEPARATION_DEG:g}° of it"
+            for k, b in enumerate(info["map"]["brightest"])]
         _emit(args, info, "\n".join(lines))
         return 0
     info = _json_safe(describe_file(Path(args.file)))

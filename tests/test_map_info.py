@@ -64,6 +64,33 @@ def test_info_describes_a_latlong_map(tmp_path):
     assert human.returncode == 0 and "environment map, latlong" in human.stdout and "dynamic range" in human.stdout
 
 
+def test_info_lists_bright_spots_apart_with_their_azimuth_and_light(tmp_path):
+    """A sun of 2 × 2 texels and a dimmer lamp elsewhere: the list gives the sun once (its
+    brightest texel) and the lamp next, not the sun's neighbours; azimuth and elevation by
+    CONVENTIONS.md's u, v of the texel's centre; each spot's light within 10° of it."""
+    image = sky_with_sun(0.5)
+    image[4:6, 40:42] = np.array([[5e4, 4e4], [3e4, 2e4]])[..., None]  # the sun: its brightest texel (4, 40) first
+    image[20, 10] = 1e3  # a lamp below the horizon
+    path = tmp_path / "two.exr"
+    write_exr(path, image)
+    spots = json.loads(brdflab("info", str(path), "--json").stdout)["map"]["brightest"]
+    assert [s["texel"] for s in spots[:2]] == [[40, 4], [10, 20]]
+    lum = image @ np.array([0.2126, 0.7152, 0.0722])
+    rows, cols = np.meshgrid(np.arange(H), np.arange(W), indexing="ij")
+    theta, phi = math.pi * (rows + 0.5) / H, 2 * math.pi * ((cols + 0.5) / W - 0.5)
+    d = np.stack([np.sin(theta) * np.sin(phi), np.cos(theta), -np.sin(theta) * np.cos(phi)], axis=-1)
+    power = lum * np.array([row_solid_angle(r) for r in range(H)])[:, None]
+    for spot, (row, col) in zip(spots, [(4, 40), (20, 10)]):
+        assert spot["azimuth_deg"] == pytest.approx(360 * ((col + 0.5) / W - 0.5), abs=1e-2)
+        assert spot["elevation_deg"] == pytest.approx(90 - 180 * (row + 0.5) / H, abs=1e-2)
+        near = d @ d[row, col] >= math.cos(math.radians(10))
+        assert spot["share_nearby"] == pytest.approx(power[near].sum() / power.sum(), rel=1e-4)
+    for a, b in ((a, b) for i, a in enumerate(spots) for b in spots[:i]):
+        assert np.dot(a["direction"], b["direction"]) < math.cos(math.radians(10)) + 1e-3  # 10° apart
+    human = brdflab("info", str(path)).stdout
+    assert "bright spot 2: luminance 1000 at elevation" in human and "of the light within 10° of it" in human
+
+
 def test_small_source_share_tells_a_sun_from_an_even_sky(tmp_path):
     shares = {}
     for name, sun in (("even", 0.5), ("sun", 1e6)):

@@ -17,7 +17,8 @@ from brdflab.lighting.env_sampling import LUMINANCE
 from brdflab.lighting.envmap import EnvironmentMap, load_environment
 
 MAP_SUFFIXES = (".hdr", ".pic", ".rgbe", ".exr")
-BRIGHTEST = 5  # texels listed
+BRIGHTEST = 5  # bright spots listed …
+SEPARATION_DEG = 10.0  # … each the brightest texel farther than this from the brighter ones (a sun is one spot)
 SMALL_SOURCE_SHARE = 1e-3  # "small sources": the brightest 0.1 % of the sphere
 
 
@@ -39,18 +40,19 @@ def map_summary(env: EnvironmentMap) -> dict:
     power = lum * solid  # (H, W): each texel's luminance × solid angle
     total = float(power.sum())
     positive = lum[lum > 0]
-    order = np.argsort(lum, axis=None)[::-1]
     brightest = []
-    for flat in order[:BRIGHTEST]:
-        row, col = divmod(int(flat), env.width)
+    for row, col in bright_spots(lum, directions):
         d = directions[row, col]
         brightest.append({
             "texel": [col, row],
             "direction": [round(float(c), 4) for c in d],
             "elevation_deg": round(float(np.degrees(np.arcsin(np.clip(d[1], -1.0, 1.0)))), 2),
+            "azimuth_deg": round(float(np.degrees(np.arctan2(d[0], -d[2]))), 2),  # CONVENTIONS: u = 0.5 + atan2(x, −z)/2π
             "radiance": [float(c) for c in env.data[row, col, :3]],
             "luminance": float(lum[row, col]),
             "share_of_light": float(power[row, col] / total) if total > 0 else 0.0,
+            # the spot's light: every texel within SEPARATION_DEG of it
+            "share_nearby": float(power[directions @ d >= np.cos(np.radians(SEPARATION_DEG))].sum() / total) if total > 0 else 0.0,
         })
     return {
         "layout": env.layout,
@@ -64,6 +66,26 @@ def map_summary(env: EnvironmentMap) -> dict:
         "brightest": brightest,
         "note": env.note,
     }
+
+
+def bright_spots(lum: np.ndarray, directions: np.ndarray, count: int = BRIGHTEST,
+                 separation_deg: float = SEPARATION_DEG) -> list[tuple[int, int]]:
+    """(row, column) of up to `count` texels, brightest first, each farther than
+    `separation_deg` from every brighter one listed: the map's bright spots, where its
+    brightest texels alone are most often one sun's neighbours (five texels at 8.3°
+    elevation for the campus probe's sun)."""
+    order = np.argsort(lum, axis=None)[::-1]
+    cos_min = np.cos(np.radians(separation_deg))
+    flat = directions.reshape(-1, 3)
+    spots: list[int] = []
+    for start in range(0, len(order), 4096):  # the brightest first: most maps need one block
+        block = order[start:start + 4096]
+        for index in block[(flat[block] @ flat[spots].T < cos_min).all(axis=1)] if spots else block:
+            if not spots or (flat[spots] @ flat[index] < cos_min).all():
+                spots.append(int(index))
+                if len(spots) == count:
+                    return [divmod(i, lum.shape[1]) for i in spots]
+    return [divmod(i, lum.shape[1]) for i in spots]
 
 
 def small_source_share(power: np.ndarray, solid: np.ndarray, width: int) -> float:
