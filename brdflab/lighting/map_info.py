@@ -80,11 +80,11 @@ def bright_spots(lum: np.ndarray, directions: np.ndarray, count: int = BRIGHTEST
     spots: list[int] = []
     for start in range(0, len(order), 4096):  # the brightest first: most maps need one block
         block = order[start:start + 4096]
-        for index in block[(flat[block] @ flat[spots].T < cos_min).all(axis=1)] if spots else block:
-            if not spots or (flat[spots] @ flat[index] < cos_min).all():
+        for index in block[(flat[block] @ flat[spots].T < cos_min).all(axis=1)]:  # apart from the spots so far …
+            if len(spots) < count and (flat[spots] @ flat[index] < cos_min).all():  # … and from this block's
                 spots.append(int(index))
-                if len(spots) == count:
-                    return [divmod(i, lum.shape[1]) for i in spots]
+        if len(spots) == count:
+            break
     return [divmod(i, lum.shape[1]) for i in spots]
 
 

@@ -90,7 +90,7 @@ def by_texel_centres(source, d: np.ndarray, weight: np.ndarray, frame: tuple, wo
     if keep is not None:
         seen &= keep.astype(bool)
     texel, pixel = np.nonzero(seen)
-    f = _rgb(source.evaluate(wi[texel, pixel], wo[pixel]), (len(pixel), 1))[:, 0]
+    f = _rgb(source.evaluate(wi[texel, pixel], wo[pixel]), (len(pixel),))
     g = f * (wi[texel, pixel, 2][:, None] * weight[texel])
     return np.stack([np.bincount(pixel, g[:, c], minlength=len(wo)) for c in range(3)], axis=-1)
 
@@ -152,7 +152,7 @@ def refined_environment_image(source, env: EnvironmentMap, width: int, height: i
     return out
 
 
-def _rgb(f: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+def _rgb(f: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """Evaluated values (n, C) as (*shape, 3): the first three channels, or one repeated."""
     f = f.reshape(*shape, -1)
     return f[..., :3] if f.shape[-1] >= 3 else np.repeat(f, 3, -1)

@@ -613,7 +613,7 @@ class Progressive:
     FIS's filter footprint is its set's size: 64 of a set of 256 drawn were 2.1 % off per pixel
     on the default scene, a finished set of 64 1.0–1.5 %. So an FIS image of 256 samples or
     more drawn in pieces first draws a set of PREVIEW in its own target and shows it until the
-    image's own set holds 4 × PREVIEW samples (or is complete): the user sees a finished set of
+    image's own set holds 4 × PREVIEW samples: the user sees a finished set of
     64 after 64 samples, the image complete after 25 % more drawing, and that image is still
     `render`'s."""
 
@@ -637,10 +637,9 @@ class Progressive:
 
     @property
     def _shown(self) -> _Accumulation:
-        p = self._preview
-        if p is None or self._image.samples >= min(4 * PREVIEW, self.settings.samples):
-            return self._image
-        return p
+        """The preview until the image's own set holds 4 × PREVIEW samples (a preview is drawn
+        only for sets of at least that many)."""
+        return self._image if self._preview is None or self._image.samples >= 4 * PREVIEW else self._preview
 
     @property
     def texture(self) -> moderngl.Texture:
