@@ -230,3 +230,25 @@ def test_ctrl_c_while_the_second_error_is_measured_keeps_the_finished_fit(tmp_pa
     assert f"interrupted while its {second} error was measured; {what} is saved in {out} without it" in err
     stats = load(out).fittings[0].statistics
     assert stats["status"] == "converged" and not {"imageError", "sampleError"} & set(stats)
+
+
+@needs_shared("merl_slices", "nickel.slice")
+def test_a_table_is_fitted_at_its_bin_centres_with_its_values():
+    """Every sample a fit runs over is a valid bin's centre (θh, θd, φd), above the surface,
+    with that bin's measured values: recomputed from the half/difference angles of the
+    directions, apart from how `TableSampleSet` builds them."""
+    from brdflab.geometry.halfdiff import N_PD, N_TD, to_half_diff
+
+    table = read_slice(DATA / "merl_slices" / "nickel.slice").to_full()
+    seen = 0
+    for wi, wo, y, weight in samples_of(table).chunks():
+        th, _, td, pd = to_half_diff(wi, wo)
+        x = np.rint(np.sqrt(th / (0.5 * np.pi)) * 90 - 0.5).astype(int)
+        yb = np.rint(td / (0.5 * np.pi) * N_TD - 0.5).astype(int)
+        zb = np.rint(np.mod(pd, np.pi) / np.pi * N_PD - 0.5).astype(int) % N_PD
+        np.testing.assert_allclose(th, theta_h_of_bin(x), atol=1e-9)
+        np.testing.assert_allclose(td, theta_d_of_bin(yb), atol=1e-9)
+        assert table.valid[x, yb, zb].all() and (wi[:, 2] > 0).all() and (wo[:, 2] > 0).all() and (weight > 0).all()
+        np.testing.assert_array_equal(y, table.values[:, x, yb, zb].T)
+        seen += y.shape[0]
+    assert seen == samples_of(table).size > 1_000_000

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from brdflab.geometry.vec import half_vector, shared_half_vectors
-from brdflab.models.registry import all_models
+from brdflab.models.registry import all_models, get_model
 
 
 def directions(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -41,3 +41,46 @@ def test_shared_half_vectors_are_read_only_and_end_with_the_block():
         with pytest.raises(ValueError):
             h[0, 0] = 1.0
     assert half_vector(wi, wo) is not h and half_vector(wi, wo).flags.writeable
+
+
+def perturbed_rows(model, rng) -> list[dict]:
+    """A fitting pass's evaluations of one lobe: its parameters (the defaults and its starts)
+    and each of them moved by a finite-difference step, in a random order."""
+    rows = []
+    for p in [model.defaults(), *[{**model.defaults(), **s} for s in model.starts[:3]]]:
+        rows.append(p)
+        for q in model.parameters:
+            step = 1e-5 if p[q.name] + 1e-5 <= q.upper else -1e-5
+            rows.append({**p, q.name: p[q.name] + step})
+    return [rows[k] for k in rng.permutation(len(rows))]
+
+
+def test_a_fitting_pass_of_any_model_equals_its_evaluations_alone():
+    """Terms that a perturbation leaves as they were are shared within a pass (Cook–Torrance's
+    masking and Fresnel weight, its D·G when F0 moves; Principled's terms): every value must
+    still be what an evaluation alone gives, bit for bit, so that no fit moves."""
+    wi, wo = directions(3000, 4)
+    rng = np.random.default_rng(5)
+    for model in all_models():
+        rows = perturbed_rows(model, rng)
+        alone = [model.evaluate(wi, wo, p) for p in rows]
+        with shared_half_vectors():
+            shared = [model.evaluate(wi, wo, p) for p in rows]
+        for p, a, s in zip(rows, alone, shared):
+            np.testing.assert_array_equal(s, a, err_msg=f"{model.name} {p}")
+
+
+@pytest.mark.parametrize("name, distribution", [("CookTorrance", "beckmann_d"), ("CookTorranceGGX", "ggx_d")])
+def test_a_fresnel_step_does_not_compute_the_distribution_again(monkeypatch, name, distribution):
+    """Within a pass, the lobe at F0 + step reuses D·G of the lobe at F0 (the same m)."""
+    import brdflab.models.cook_torrance as ct
+
+    calls = []
+    original = getattr(ct, distribution)
+    monkeypatch.setattr(ct, distribution, lambda *a: calls.append(a[1]) or original(*a))
+    model = get_model(name)
+    wi, wo = directions(500, 6)
+    with shared_half_vectors():
+        for p in ({"m": 0.2, "F0": 0.05}, {"m": 0.2, "F0": 0.05 + 1e-5}, {"m": 0.2 + 1e-5, "F0": 0.05}):
+            model.evaluate(wi, wo, p)
+    assert calls == [0.2, 0.2 + 1e-5]

@@ -43,7 +43,7 @@ from brdflab.fitting.defaults import DEFAULT_METRIC, DEFAULT_RESTARTS
 from brdflab.fitting.diagnosis import suspicions
 from brdflab.fitting.nnls import nnls
 from brdflab.fitting.image_metric import SPHERE, SceneImages, tone
-from brdflab.fitting.metrics import METRICS, check_metric, lobe_shares, metric_errors, sample_weight
+from brdflab.fitting.metrics import METRICS, check_metric, in_domain, lobe_shares, metric_errors
 from brdflab.fitting.samples import SampleSet
 from brdflab.geometry.vec import shared_half_vectors
 
@@ -398,12 +398,7 @@ class _Problem:
     def _prepare(self, chunk) -> _Prepared:
         """What a pass needs of a chunk besides the lobes' values: its samples inside the
         metric's domain and their weights per channel."""
-        wi, wo, y, w = chunk
-        norm = float(self._metric_weight(wi, wo, w, cosine=False).sum())
-        weight = self._metric_weight(wi, wo, w)
-        inside = weight > 0.0  # samples outside the metric's domain cost nothing
-        if not inside.all():
-            wi, wo, y, weight = wi[inside], wo[inside], y[inside], weight[inside]
+        wi, wo, y, weight, norm = in_domain(self.options.metric, *chunk)
         C = y.shape[1]
         compressed = self.options.compression != "none"
         channel_weight = [weight * self._compression_weight(y[:, c]) for c in range(C)] if compressed else [weight] * C
@@ -451,9 +446,6 @@ class _Problem:
                 plain[c] = Eb @ Ec[:L].T
                 plain_b[c] = Eb @ y[:, c]
         return G, b, chunk.yy, plain, plain_b, chunk.plain_yy, chunk.norm
-
-    def _metric_weight(self, wi, wo, w, cosine: bool = True) -> np.ndarray:
-        return sample_weight(self.options.metric, wi, wo, w, cosine)
 
     def _compression_weight(self, y: np.ndarray) -> np.ndarray:
         """Squared derivative of the compression at the data: residuals g(f) − g(y) are

@@ -45,9 +45,23 @@ def sample_weight(metric: str, wi: np.ndarray, wo: np.ndarray, measure: np.ndarr
     w = np.asarray(measure, float)
     if metric != "cosL2":
         w = np.where((wi[:, 2] >= NGAN_MAX_COS) & (wo[:, 2] >= NGAN_MAX_COS), w, 0.0)
-    if cosine and metric != "L2":
-        w = w * wi[:, 2] ** 2
-    return w
+    return _cosine_weighted(metric, w, wi) if cosine else w
+
+
+def _cosine_weighted(metric: str, domain: np.ndarray, wi: np.ndarray) -> np.ndarray:
+    return domain * wi[:, 2] ** 2 if metric != "L2" else domain
+
+
+def in_domain(metric: str, wi: np.ndarray, wo: np.ndarray, y: np.ndarray, measure: np.ndarray):
+    """A chunk's samples that `metric` weighs (wi, wo, y, their weights) and the measure of the
+    metric's domain in the chunk (what the error is normalised by)."""
+    domain = sample_weight(metric, wi, wo, measure, cosine=False)
+    w = _cosine_weighted(metric, domain, wi)
+    inside = w > 0.0  # samples outside the domain cost nothing
+    if not inside.all():  # `take` of indices: 4× faster than indexing with the mask
+        keep = np.flatnonzero(inside)
+        wi, wo, y, w = (np.take(a, keep, axis=0) for a in (wi, wo, y, w))
+    return wi, wo, y, w, float(domain.sum())
 
 
 def metric_errors(materials: list, samples: SampleSet, metric: str) -> list[float]:
@@ -59,15 +73,13 @@ def metric_errors(materials: list, samples: SampleSet, metric: str) -> list[floa
         return samples.errors(materials)
     num = np.zeros(len(materials))
     den = 0.0
-    for wi, wo, y, measure in samples.chunks():
-        w = sample_weight(metric, wi, wo, measure)
-        inside = w > 0.0
-        wi_in, wo_in, y_in, w_in = wi[inside], wo[inside], y[inside], w[inside]
+    for chunk in samples.chunks():
+        wi, wo, y, w, domain = in_domain(metric, *chunk)
         with shared_half_vectors():
             for k, material in enumerate(materials):
-                f = 0.0 if material is None else material.evaluate(wi_in, wo_in)
-                num[k] += float(np.einsum("n,n->", w_in, ((f - y_in) ** 2).sum(axis=1)))
-        den += float(sample_weight(metric, wi, wo, measure, cosine=False).sum())
+                f = 0.0 if material is None else material.evaluate(wi, wo)
+                num[k] += float(np.einsum("n,n->", w, ((f - y) ** 2).sum(axis=1)))
+        den += domain
     return [math.sqrt(n / max(den * samples.n_channels, 1e-300)) for n in num]
 
 
@@ -106,10 +118,8 @@ def lobe_shares(material, samples: SampleSet, metric: str) -> np.ndarray:
         return samples.lobe_shares(material, _contribution)
     own = np.zeros(len(material.lobes))
     total = 0.0
-    for wi, wo, _, measure in samples.chunks():
-        w = sample_weight(metric, wi, wo, measure)
-        inside = w > 0.0
-        wi, wo, w = wi[inside], wo[inside], w[inside]
+    for chunk in samples.chunks():
+        wi, wo, _, w, _ = in_domain(metric, *chunk)
         parts = [_contribution(material, lobe, wi, wo) for lobe in material.lobes]
         own += [float(np.einsum("n,n->", w, (p ** 2).sum(axis=1))) for p in parts]
         total += float(np.einsum("n,n->", w, (sum(parts) ** 2).sum(axis=1)))

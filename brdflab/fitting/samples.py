@@ -33,7 +33,11 @@ def phi_h_of(index: np.ndarray) -> np.ndarray:
 
 
 def rotate_about_normal(v: np.ndarray, cos_phi: np.ndarray, sin_phi: np.ndarray) -> np.ndarray:
-    return np.stack([cos_phi * v[:, 0] - sin_phi * v[:, 1], sin_phi * v[:, 0] + cos_phi * v[:, 1], v[:, 2]], axis=1)
+    out = np.empty_like(v)
+    out[:, 0] = cos_phi * v[:, 0] - sin_phi * v[:, 1]
+    out[:, 1] = sin_phi * v[:, 0] + cos_phi * v[:, 1]
+    out[:, 2] = v[:, 2]
+    return out
 
 
 def spread_phi_h(wi: np.ndarray, wo: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -137,6 +141,9 @@ class TableSampleSet(SampleSet):
         self._col_value_z = self._col_z if table.phi_d_samples > 1 else np.zeros_like(self._col_z)
         td, pd = theta_d_of_bin(self._col_y), phi_d_of_bin(self._col_z)
         self._d = spherical_to_cartesian(td, pd)  # difference vectors, shared by all rows
+        # a column's value in a row of the table seen as (channels, θh, θd · φd): `np.take` of
+        # these is 4–7× faster than indexing the table and `_d` with arrays of indices
+        self._col_value_index = self._col_y * table.values.shape[3] + self._col_value_z
         # sample (row x, column j) has φh = phi_h_of(x·columns + j) = row phase + column phase
         col_phase = phi_h_of(np.arange(len(self._d)))
         self._col_cos, self._col_sin = np.cos(col_phase), np.sin(col_phase)
@@ -163,7 +170,7 @@ class TableSampleSet(SampleSet):
         x = int(self.ix[r])
         th = float(theta_h_of_bin(x))
         c, s = np.cos(th), np.sin(th)
-        d = self._d[cols]
+        d = np.take(self._d, cols, axis=0)
         wi = np.empty_like(d)
         wi[:, 0] = c * d[:, 0] + s * d[:, 2]
         wi[:, 1] = d[:, 1]
@@ -174,11 +181,12 @@ class TableSampleSet(SampleSet):
         wo[:, 2] += k * c
         row_phase = 2.0 * np.pi * ((x * len(self._d) * GOLDEN) % 1.0)
         cr, sr = np.cos(row_phase), np.sin(row_phase)
-        cc, sc = self._col_cos[cols], self._col_sin[cols]
+        cc, sc = np.take(self._col_cos, cols), np.take(self._col_sin, cols)
         cos_phi, sin_phi = cr * cc - sr * sc, sr * cc + cr * sc
         wi, wo = rotate_about_normal(wi, cos_phi, sin_phi), rotate_about_normal(wo, cos_phi, sin_phi)
-        y = self.table.values[:, x, self._col_y[cols], self._col_value_z[cols]].T.astype(float)
-        return wi, wo, y, self._cell[cols] * self._row_weight[r]
+        row_values = self.table.values[:, x].reshape(self.n_channels, -1)
+        y = np.ascontiguousarray(np.take(row_values, np.take(self._col_value_index, cols), axis=1).T, dtype=float)
+        return wi, wo, y, np.take(self._cell, cols) * self._row_weight[r]
 
     def chunks(self) -> Iterator[Chunk]:
         """One θh bin per chunk (at most 16,200 samples)."""

@@ -62,11 +62,16 @@ def half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     return shared_term(wi, wo, ("half vector",), lambda: normalize(wi + wo))
 
 
-def schlick(f0, cos_theta):
-    """Schlick's Fresnel approximation F0 + (1 - F0)(1 - cos)^5."""
+def schlick_weight(cos_theta):
+    """(1 − cos)⁵, cos clamped to [0, 1]: Schlick's Fresnel without its F0."""
     c = np.clip(1.0 - cos_theta, 0.0, 1.0)
-    c2 = c * c
-    return f0 + (1.0 - f0) * (c2 * c2 * c)
+    return (c * c) * (c * c) * c
+
+
+def schlick(f0, cos_theta, weight=None):
+    """Schlick's Fresnel approximation F0 + (1 − F0)(1 − cos)⁵ (`weight`: the second factor,
+    `schlick_weight(cos_theta)`, where a caller has it)."""
+    return f0 + (1.0 - f0) * (schlick_weight(cos_theta) if weight is None else weight)
 
 
 def spherical_to_cartesian(theta, phi) -> np.ndarray:

@@ -14,7 +14,7 @@ from typing import ClassVar, Mapping
 
 import numpy as np
 
-from brdflab.geometry.vec import upper_hemisphere
+from brdflab.geometry.vec import shared_term, upper_hemisphere
 
 ParamValues = Mapping[str, "float | np.ndarray"]
 
@@ -224,7 +224,7 @@ class LobeModel:
         wi = np.asarray(wi, dtype=float)
         wo = np.asarray(wo, dtype=float)
         p = self._with_defaults(params)
-        mask = upper_hemisphere(wi, wo)
+        mask = shared_term(wi, wo, ("upper hemisphere",), lambda: upper_hemisphere(wi, wo))
         with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
             v = self._value(wi, wo, p)
         out = np.array(np.broadcast_to(v, np.broadcast_shapes(np.shape(v), mask.shape)), dtype=float)

@@ -1,9 +1,14 @@
-"""Cook–Torrance microfacet lobes: Beckmann with V-cavity masking, and GGX with Smith masking."""
+"""Cook–Torrance microfacet lobes: Beckmann with V-cavity masking, and GGX with Smith masking.
+
+A fitting pass evaluates a lobe once per perturbed parameter at the same directions: the terms
+that do not change (the masking and Fresnel's (1 − o·h)⁵ always, D·G when only F0 moves) are
+`shared_term`s, computed once per pass by the same arithmetic, so every value is what a lone
+evaluation gives, bit for bit."""
 
 import numpy as np
 
 from brdflab.geometry.sampling import beckmann_d, beckmann_half_vector, ggx_d, ggx_visible_half_vector, half_vector_pdf, reflect
-from brdflab.geometry.vec import TINY, dot, half_vector, schlick
+from brdflab.geometry.vec import TINY, dot, half_vector, schlick, schlick_weight, shared_term
 from brdflab.models.base import LobeModel, Parameter, SplitSum
 from brdflab.models.registry import register
 
@@ -12,6 +17,18 @@ _PARAMS = (
     Parameter("m", 0.2, 0.001, 1.0, "1", "RMS microfacet slope (Beckmann m, GGX α)", log=True),
     Parameter("F0", 0.05, 0.0, 1.0, "1", "Fresnel reflectance at normal incidence"),
 )
+
+
+def _shared(wi, wo, key: tuple, compute):
+    """A term of the lobe that a parameter array (a spatially varying m) keeps from sharing."""
+    return shared_term(wi, wo, key, compute) if all(np.ndim(k) == 0 for k in key) else compute()
+
+
+def _specular(wi, wo, h, dg, f0):
+    """D·G · F(wo·h) / (4 cos θi cos θo), the Fresnel factor's (1 − wo·h)⁵ and the
+    denominator shared by every evaluation at these directions."""
+    fresnel = schlick(f0, None, _shared(wi, wo, ("(1 − o·h)⁵",), lambda: schlick_weight(dot(wo, h))))
+    return dg * fresnel / _shared(wi, wo, ("4 cos θi cos θo",), lambda: 4.0 * wi[..., 2] * wo[..., 2])
 
 
 @register
@@ -29,11 +46,15 @@ class CookTorrance(LobeModel):
 
     def _value(self, wi, wo, p):
         h = half_vector(wi, wo)
-        woh = dot(wo, h)
-        hz = h[..., 2]
-        g = np.minimum(1.0, np.minimum(2.0 * hz * wo[..., 2] / woh, 2.0 * hz * wi[..., 2] / woh))
-        d = beckmann_d(h, p["m"], p["m"])
-        return d * g * schlick(p["F0"], woh) / (4.0 * wi[..., 2] * wo[..., 2])
+        m = p["m"]
+
+        def masking():
+            woh, hz = dot(wo, h), h[..., 2]
+            return np.minimum(1.0, np.minimum(2.0 * hz * wo[..., 2] / woh, 2.0 * hz * wi[..., 2] / woh))
+
+        dg = _shared(wi, wo, ("Beckmann D·G", m),
+                     lambda: beckmann_d(h, m, m) * _shared(wi, wo, ("V-cavity G",), masking))
+        return _specular(wi, wo, h, dg, p["F0"])
 
     def _sample(self, wo, u, p):
         return reflect(wo, beckmann_half_vector(p["m"], p["m"], u))
@@ -42,10 +63,15 @@ class CookTorrance(LobeModel):
         return half_vector_pdf(wi, wo, lambda h: beckmann_d(h, p["m"], p["m"]) * h[..., 2])
 
 
-def smith_ggx_g1(cos_theta, alpha):
+def tan2_of(cos_theta):
+    """tan² θ from cos θ (cos² floored at 1e-12)."""
     c2 = np.maximum(cos_theta * cos_theta, 1e-12)
-    tan2 = (1.0 - c2) / c2
-    return 2.0 / (1.0 + np.sqrt(1.0 + alpha * alpha * tan2))
+    return (1.0 - c2) / c2
+
+
+def smith_ggx_g1(cos_theta, alpha, tan2=None):
+    """Smith's masking of GGX for one direction (`tan2`: `tan2_of(cos_theta)`, where a caller has it)."""
+    return 2.0 / (1.0 + np.sqrt(1.0 + alpha * alpha * (tan2_of(cos_theta) if tan2 is None else tan2)))
 
 
 @register
@@ -64,8 +90,13 @@ class CookTorranceGGX(LobeModel):
     def _value(self, wi, wo, p):
         h = half_vector(wi, wo)
         a = p["m"]
-        g = smith_ggx_g1(wi[..., 2], a) * smith_ggx_g1(wo[..., 2], a)
-        return ggx_d(h, a) * g * schlick(p["F0"], dot(wo, h)) / (4.0 * wi[..., 2] * wo[..., 2])
+
+        def dg():
+            ti = _shared(wi, wo, ("tan² θi",), lambda: tan2_of(wi[..., 2]))
+            to = _shared(wi, wo, ("tan² θo",), lambda: tan2_of(wo[..., 2]))
+            return ggx_d(h, a) * (smith_ggx_g1(None, a, ti) * smith_ggx_g1(None, a, to))
+
+        return _specular(wi, wo, h, _shared(wi, wo, ("GGX D·G", a), dg), p["F0"])
 
     def _sample(self, wo, u, p):
         return reflect(wo, ggx_visible_half_vector(wo, p["m"], u))

@@ -38,7 +38,7 @@ from brdflab.geometry.sampling import (
     half_vector_pdf,
     reflect,
 )
-from brdflab.geometry.vec import TINY, dot, half_vector, shared_term
+from brdflab.geometry.vec import TINY, dot, half_vector, schlick_weight, shared_term
 from brdflab.models.base import LUMINANCE, LobeModel, Parameter, anisotropic_split
 from brdflab.models.registry import register
 
@@ -69,12 +69,6 @@ PARAMETERS = (
     _unit("clearcoat", 0.0, "weight of the clear-coat lobe"),
     _unit("clearcoat_gloss", 0.0, "0: clear-coat α = 0.1, 1: α = 0.001"),
 )
-
-
-def schlick_weight(c):
-    """(1 − c)⁵, c clamped to [0, 1]."""
-    m = np.clip(1.0 - c, 0.0, 1.0)
-    return (m * m) * (m * m) * m
 
 
 def specular_eta(specular):
