@@ -110,14 +110,17 @@ class MeasuredTable:
             fz = z - np.floor(z)
         acc = np.zeros(x.shape + (self.n_channels,))
         wsum = np.zeros(x.shape)
+        # the table as (channels, bins) and its validity as (bins,): `np.take` of a corner's flat
+        # index is several times faster than indexing the 4-D table with three index arrays
+        values, valid = self.values.reshape(self.n_channels, -1), self.valid.reshape(-1)
         for dx, wx in ((0, 1 - fx), (1, fx)):
             for dy, wy in ((0, 1 - fy), (1, fy)):
                 for dz, wz in ((0, 1 - fz), (1, fz)):
                     if npd == 1 and dz == 1:
                         continue
-                    ix, iy, iz = x0 + dx, y0 + dy, (z0 + dz) % npd
-                    w = wx * wy * wz * self.valid[ix, iy, iz]
-                    acc += w[..., None] * np.moveaxis(self.values[:, ix, iy, iz], 0, -1)
+                    flat = ((x0 + dx) * N_TD + (y0 + dy)) * npd + (z0 + dz) % npd
+                    w = wx * wy * wz * np.take(valid, flat)
+                    acc += w[..., None] * np.moveaxis(np.take(values, flat, axis=1), 0, -1)
                     wsum += w
         return np.where(wsum[..., None] > 1e-12, acc / np.maximum(wsum, 1e-12)[..., None], 0.0)
 

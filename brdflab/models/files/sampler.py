@@ -192,12 +192,16 @@ class TabulatedSampler:
 
         def density_h(h):
             out = np.zeros(n)
+            cells_of = {}  # h's cell in a view's frame, once per frame: an isotropic source's views share one
             for k, weight, phi in views:
-                local = rotate_about_z(h, -np.broadcast_to(phi, (n,))) if self.isotropic else h
-                it = _theta_cell(local[:, 2])
-                ip = np.minimum((np.mod(np.arctan2(local[:, 1], local[:, 0]), 2.0 * math.pi)
-                                 / (2.0 * math.pi) * N_PHI).astype(int), N_PHI - 1)
-                out += np.broadcast_to(weight, (n,)) * self._density[np.broadcast_to(k, (n,)), it * N_PHI + ip]
+                frame = id(phi) if self.isotropic else None
+                if frame not in cells_of:
+                    local = rotate_about_z(h, -np.broadcast_to(phi, (n,))) if self.isotropic else h
+                    it = _theta_cell(local[:, 2])
+                    ip = np.minimum((np.mod(np.arctan2(local[:, 1], local[:, 0]), 2.0 * math.pi)
+                                     / (2.0 * math.pi) * N_PHI).astype(int), N_PHI - 1)
+                    cells_of[frame] = it * N_PHI + ip
+                out += np.broadcast_to(weight, (n,)) * self._density[np.broadcast_to(k, (n,)), cells_of[frame]]
             return out
 
         tabulated = half_vector_pdf(wi, wo, density_h)
