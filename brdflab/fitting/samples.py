@@ -1,7 +1,7 @@
 """Sample sets that a fit runs over, delivered in chunks so that memory stays small.
 
-A sample set yields chunks (wi, wo, values (n, C), weight (n,), cos_i (n,)); `weight`
-is the sample's share of the (ωi, ωo) measure, used by the Ngan metric.
+A sample set yields chunks (wi, wo, values (n, C), weight (n,)); `weight` is the sample's
+share of the (ωi, ωo) measure, which every metric weighs squared differences by.
 """
 
 from __future__ import annotations
