@@ -203,13 +203,20 @@ def map_quadrature(env: EnvironmentMap, view: int | PixelFrames = VIEW, dim_widt
     pixel = np.concatenate([pix_b, pix_c, pix_f])
     world = np.concatenate([layers.bright_dirs[tex_b], coarse_d[tex_c], fine_d[child.ravel()]])
     energy = np.concatenate([layers.bright_energy[tex_b], coarse_e[tex_c], fine_e[child.ravel()]])
-    cos = (world * n[pixel]).sum(1)
-    keep = (cos > 0.0) & (energy.max(axis=1) > 0.0)
-    order = np.argsort(pixel[keep], kind="stable")
-    pixel, world, energy, cos = pixel[keep][order], world[keep][order], energy[keep][order], cos[keep][order]
-    wi = np.stack([(world * t[pixel]).sum(1), (world * b[pixel]).sum(1), cos], axis=1)
-    wo = np.stack([(v[pixel] * axis[pixel]).sum(1) for axis in (t, b, n)], axis=1)  # the view in each pixel's frame
+    cos = _rowdot(world, np.take(n, pixel, axis=0))
+    kept = np.flatnonzero((cos > 0.0) & (energy.max(axis=1) > 0.0))
+    kept = kept[np.argsort(pixel[kept], kind="stable")]  # the kept pairs, pixel by pixel
+    pixel, world, energy, cos = (np.take(a, kept, axis=0) for a in (pixel, world, energy, cos))
+    tp, bp, np_, vp = (np.take(a, pixel, axis=0) for a in (t, b, n, v))
+    wi = np.stack([_rowdot(world, tp), _rowdot(world, bp), cos], axis=1)
+    wo = np.stack([_rowdot(vp, tp), _rowdot(vp, bp), _rowdot(vp, np_)], axis=1)  # the view in each pixel's frame
     return MapQuadrature(env.name, frames.inside, pixel, wi, wo, energy * cos[:, None])
+
+
+def _rowdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(a * b).sum(axis=1) of (N, 3) arrays, bit for bit (NumPy adds a row's three products in
+    order onto 0.0), in a third of its time: three columns instead of a reduction per row."""
+    return 0.0 + a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
 def default_maps() -> list[EnvironmentMap]:
