@@ -37,6 +37,21 @@ def small_maps(*names, size=(128, 64)):
     return [spec(n).build(*size) for n in names]
 
 
+def test_the_quadratures_dot_products_are_numpys_sums_bit_for_bit():
+    """`_rowdot` stands for (a * b).sum(axis=1) in the quadrature of every image-metric fit: it
+    must give the same bits, signed zeros, infinities and NaN included, or fits would move."""
+    from brdflab.fitting.image_metric import _rowdot
+
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(200_000, 3)) * 10.0 ** rng.integers(-8, 8, size=(200_000, 3))
+    b = rng.normal(size=(200_000, 3))
+    for value, share in ((-0.0, 0.05), (0.0, 0.02), (np.inf, 0.001), (np.nan, 0.001)):
+        a[rng.random(a.shape) < share] = value
+    b[:1000] = -0.0
+    with np.errstate(invalid="ignore", over="ignore"):  # inf × 0 and inf − inf: NaN, as intended
+        np.testing.assert_array_equal(_rowdot(a, b).view(np.int64), (a * b).sum(axis=1).view(np.int64))
+
+
 def test_a_render_is_linear_in_the_brdf():
     q = map_quadrature(spec("sun-low-small").build(128, 64), 12, 16, 64)
     a = lobes(("Lambertian", {}, (0.3, 0.2, 0.1)))
