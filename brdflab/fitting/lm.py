@@ -331,6 +331,7 @@ class _Problem:
         self.scene = samples if isinstance(samples, SceneImages) else None  # the image metric
         self.options = options
         self.linear = material.combination == "Linear"
+        self.held = [l for l, lobe in enumerate(material.lobes) if not lobe.model.scaled]  # lobes that keep their scale
         self.blocks = free_blocks(material, magnitude_cap)
         # for each search variable: its block and whether it changes the lobe's shape
         self.owner = [b for b in self.blocks for _ in range(b.size)]
@@ -525,9 +526,10 @@ class _Problem:
     def _linear_scales(self, G: np.ndarray, b: np.ndarray, rows: list[int], channel: int) -> np.ndarray:
         """One channel's scaling factors of the lobes on `rows`: NNLS, but a lobe that carries
         its own magnitude (model.scaled False) keeps its scale and the others fit what it leaves."""
-        held = [l for l, lobe in enumerate(self.material.lobes) if not lobe.model.scaled]
+        held = self.held
         if not held:
-            return _nnls(G[np.ix_(rows, rows)], b[rows])
+            r = np.array(rows)
+            return _nnls(G[r[:, None], r], b[r])
         out = np.empty(len(rows))
         fixed = [rows[l] for l in held]
         out[held] = [self.material.lobes[l].scale[channel] for l in held]
