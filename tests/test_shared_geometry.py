@@ -84,3 +84,21 @@ def test_a_fresnel_step_does_not_compute_the_distribution_again(monkeypatch, nam
         for p in ({"m": 0.2, "F0": 0.05}, {"m": 0.2, "F0": 0.05 + 1e-5}, {"m": 0.2 + 1e-5, "F0": 0.05}):
             model.evaluate(wi, wo, p)
     assert calls == [0.2, 0.2 + 1e-5]
+
+
+def test_a_parameter_given_per_sample_is_evaluated_not_shared():
+    """A pass may hold a lobe whose parameter is an array (one value per sample): `shared_term`
+    computes such a term each time instead of keying a cache by it, and a 0-d array shares as
+    its number."""
+    wi, wo = directions(400, 7)
+    rng = np.random.default_rng(8)
+    for name, param in (("CookTorrance", "m"), ("CookTorranceGGX", "m"), ("Principled", "roughness")):
+        model = get_model(name)
+        varying = {param: rng.uniform(0.1, 0.6, 400)}
+        alone = [model.evaluate(wi, wo, varying), model.evaluate(wi, wo, {param: 0.3})]
+        with shared_half_vectors():
+            shared = [model.evaluate(wi, wo, varying), model.evaluate(wi, wo, {param: np.array(0.3)}),
+                      model.evaluate(wi, wo, {param: 0.3})]
+        np.testing.assert_array_equal(shared[0], alone[0], err_msg=name)
+        np.testing.assert_array_equal(shared[1], alone[1], err_msg=name)
+        np.testing.assert_array_equal(shared[2], alone[1], err_msg=name)

@@ -40,12 +40,14 @@ def shared_half_vectors() -> Iterator[None]:
 
 
 def shared_term(wi: np.ndarray, wo: np.ndarray, key: tuple, compute: Callable[[], np.ndarray]) -> np.ndarray:
-    """`compute()`, a term of a lobe at directions wi, wo that depends only on the parameters
-    named in `key`: within `shared_half_vectors` computed once per key for the same two arrays
+    """`compute()`, a term of a lobe at directions wi, wo that depends only on the parameter
+    values in `key`: within `shared_half_vectors` computed once per key for the same two arrays
     (by identity) and returned read-only. A fitting pass evaluates a lobe once per perturbed
-    parameter; a perturbation of a colour leaves its distribution and masking as they were."""
-    if not getattr(_shared, "on", False):
+    parameter; a perturbation of a colour leaves its distribution and masking as they were.
+    A parameter given per sample (an array) is not shared: the term is computed every time."""
+    if not getattr(_shared, "on", False) or any(np.ndim(k) for k in key):
         return compute()
+    key = tuple(k.item() if isinstance(k, np.ndarray) else k for k in key)  # a 0-d array is its number
     if _shared.key is None or _shared.key[0] is not wi or _shared.key[1] is not wo:
         _shared.key, _shared.terms = (wi, wo), {}
     terms = _shared.terms
@@ -68,10 +70,14 @@ def schlick_weight(cos_theta):
     return (c * c) * (c * c) * c
 
 
-def schlick(f0, cos_theta, weight=None):
-    """Schlick's Fresnel approximation F0 + (1 − F0)(1 − cos)⁵ (`weight`: the second factor,
-    `schlick_weight(cos_theta)`, where a caller has it)."""
-    return f0 + (1.0 - f0) * (schlick_weight(cos_theta) if weight is None else weight)
+def schlick(f0, cos_theta):
+    """Schlick's Fresnel approximation F0 + (1 − F0)(1 − cos)⁵."""
+    return schlick_of_weight(f0, schlick_weight(cos_theta))
+
+
+def schlick_of_weight(f0, weight):
+    """Schlick's Fresnel from its weight (1 − cos)⁵ (`schlick_weight`), where a caller has it."""
+    return f0 + (1.0 - f0) * weight
 
 
 def spherical_to_cartesian(theta, phi) -> np.ndarray:

@@ -8,7 +8,7 @@ evaluation gives, bit for bit."""
 import numpy as np
 
 from brdflab.geometry.sampling import beckmann_d, beckmann_half_vector, ggx_d, ggx_visible_half_vector, half_vector_pdf, reflect
-from brdflab.geometry.vec import TINY, dot, half_vector, schlick, schlick_weight, shared_term
+from brdflab.geometry.vec import TINY, dot, half_vector, schlick_of_weight, schlick_weight, shared_term
 from brdflab.models.base import LobeModel, Parameter, SplitSum
 from brdflab.models.registry import register
 
@@ -19,16 +19,11 @@ _PARAMS = (
 )
 
 
-def _shared(wi, wo, key: tuple, compute):
-    """A term of the lobe that a parameter array (a spatially varying m) keeps from sharing."""
-    return shared_term(wi, wo, key, compute) if all(np.ndim(k) == 0 for k in key) else compute()
-
-
 def _specular(wi, wo, h, dg, f0):
     """D·G · F(wo·h) / (4 cos θi cos θo), the Fresnel factor's (1 − wo·h)⁵ and the
     denominator shared by every evaluation at these directions."""
-    fresnel = schlick(f0, None, _shared(wi, wo, ("(1 − o·h)⁵",), lambda: schlick_weight(dot(wo, h))))
-    return dg * fresnel / _shared(wi, wo, ("4 cos θi cos θo",), lambda: 4.0 * wi[..., 2] * wo[..., 2])
+    fresnel = schlick_of_weight(f0, shared_term(wi, wo, ("(1 − o·h)⁵",), lambda: schlick_weight(dot(wo, h))))
+    return dg * fresnel / shared_term(wi, wo, ("4 cos θi cos θo",), lambda: 4.0 * wi[..., 2] * wo[..., 2])
 
 
 @register
@@ -52,8 +47,8 @@ class CookTorrance(LobeModel):
             woh, hz = dot(wo, h), h[..., 2]
             return np.minimum(1.0, np.minimum(2.0 * hz * wo[..., 2] / woh, 2.0 * hz * wi[..., 2] / woh))
 
-        dg = _shared(wi, wo, ("Beckmann D·G", m),
-                     lambda: beckmann_d(h, m, m) * _shared(wi, wo, ("V-cavity G",), masking))
+        dg = shared_term(wi, wo, ("Beckmann D·G", m),
+                         lambda: beckmann_d(h, m, m) * shared_term(wi, wo, ("V-cavity G",), masking))
         return _specular(wi, wo, h, dg, p["F0"])
 
     def _sample(self, wo, u, p):
@@ -69,9 +64,14 @@ def tan2_of(cos_theta):
     return (1.0 - c2) / c2
 
 
-def smith_ggx_g1(cos_theta, alpha, tan2=None):
-    """Smith's masking of GGX for one direction (`tan2`: `tan2_of(cos_theta)`, where a caller has it)."""
-    return 2.0 / (1.0 + np.sqrt(1.0 + alpha * alpha * (tan2_of(cos_theta) if tan2 is None else tan2)))
+def smith_ggx_g1(cos_theta, alpha):
+    """Smith's masking of GGX for one direction."""
+    return smith_ggx_g1_of_tan2(tan2_of(cos_theta), alpha)
+
+
+def smith_ggx_g1_of_tan2(tan2, alpha):
+    """Smith's masking of GGX from the direction's tan² θ (`tan2_of`), where a caller has it."""
+    return 2.0 / (1.0 + np.sqrt(1.0 + alpha * alpha * tan2))
 
 
 @register
@@ -92,11 +92,11 @@ class CookTorranceGGX(LobeModel):
         a = p["m"]
 
         def dg():
-            ti = _shared(wi, wo, ("tan² θi",), lambda: tan2_of(wi[..., 2]))
-            to = _shared(wi, wo, ("tan² θo",), lambda: tan2_of(wo[..., 2]))
-            return ggx_d(h, a) * (smith_ggx_g1(None, a, ti) * smith_ggx_g1(None, a, to))
+            ti = shared_term(wi, wo, ("tan² θi",), lambda: tan2_of(wi[..., 2]))
+            to = shared_term(wi, wo, ("tan² θo",), lambda: tan2_of(wo[..., 2]))
+            return ggx_d(h, a) * (smith_ggx_g1_of_tan2(ti, a) * smith_ggx_g1_of_tan2(to, a))
 
-        return _specular(wi, wo, h, _shared(wi, wo, ("GGX D·G", a), dg), p["F0"])
+        return _specular(wi, wo, h, shared_term(wi, wo, ("GGX D·G", a), dg), p["F0"])
 
     def _sample(self, wo, u, p):
         return reflect(wo, ggx_visible_half_vector(wo, p["m"], u))

@@ -139,12 +139,6 @@ def gtr1_half_vector(alpha, u):
     return np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=-1)
 
 
-def _scalar_key(p, names) -> tuple[float, ...] | None:
-    """The values of parameters `names`, a key for `shared_term`; None when one is an array
-    (per-sample parameters are not shared)."""
-    return tuple(float(p[n]) for n in names) if all(np.ndim(p[n]) == 0 for n in names) else None
-
-
 def _zeroed(value: np.ndarray, above: np.ndarray) -> np.ndarray:
     """`value` where both directions are above the horizon and it is finite, else 0."""
     return np.where(above & np.isfinite(value), value, 0.0)
@@ -223,8 +217,7 @@ class Principled(LobeModel):
         weights = self._weights(p)
         if weights.ndim == 2:
             stacked = lambda: np.stack(self._terms(wi, wo, p), axis=-1)
-            shape = _scalar_key(p, SHAPE)
-            return (stacked() if shape is None else shared_term(wi, wo, ("principled terms", *shape), stacked)) @ weights
+            return shared_term(wi, wo, ("principled terms", *(p[n] for n in SHAPE)), stacked) @ weights
         return sum(t[..., None] * weights[..., k, :] for k, t in enumerate(self._terms(wi, wo, p)))
 
     @staticmethod
@@ -241,9 +234,7 @@ class Principled(LobeModel):
         above = shared_term(wi, wo, ("principled above",), lambda: (ci > 0.0) & (co > 0.0))
 
         def term(name, names, compute):  # 0 below the horizon and where it is not finite
-            zeroed = lambda: _zeroed(compute(), above)
-            key = _scalar_key(p, names)
-            return zeroed() if key is None else shared_term(wi, wo, (name, *key), zeroed)
+            return shared_term(wi, wo, (name, *(p[n] for n in names)), lambda: _zeroed(compute(), above))
 
         def main():
             ax, ay = alphas(p["roughness"], p["anisotropic"])
