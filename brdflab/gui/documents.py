@@ -167,7 +167,12 @@ class DocumentFiles:
             self._map_note(env)
             self.statusBar().showMessage(f"environment {env.path} ({env.layout})", 5000)
 
-        self._load("environment", path, lambda p: load_environment(p, layout, back), apply)
+        def read(p):
+            env = load_environment(p, layout, back)
+            env.mips  # noqa: B018  (computed here, in the loading thread: 80 ms of a probe held the GUI thread)
+            return env
+
+        self._load("environment", path, read, apply)
 
     def open_environment_dialog(self) -> None:
         """One map, or both halves of a dual-paraboloid pair (multiple selection)."""

@@ -11,7 +11,10 @@ a plain raster window.
 from __future__ import annotations
 
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import wait as wait_for
 from contextlib import contextmanager
+from functools import cache
 
 import moderngl
 import numpy as np
@@ -20,6 +23,7 @@ from PySide6.QtGui import QColor, QImage, QPainter
 from PySide6.QtWidgets import QWidget
 
 from brdflab.errors import BRDFLabError
+from brdflab.render import gil_free
 from brdflab.render.context import create_context
 from brdflab.render.fence import Fence
 from brdflab.render.lobe_view import LobeViewer
@@ -71,13 +75,45 @@ class _Queue:
 GL_QUEUE = _Queue()
 
 
+@cache
+def _step_thread() -> ThreadPoolExecutor:
+    """The thread that draws the object views' steps (one at a time, as GL_QUEUE has them)."""
+    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="brdflab-gl-steps")
+
+
+class _WorkerStep:
+    """Draws handed to the step thread, with the view's context current there: a program's
+    first draw compiles it (seconds on a busy machine, with Mesa's shader cache off), and the
+    GUI thread goes on meanwhile, showing the image it has (issue 35). `done` and `wait` as a
+    Fence's; `check` raises what the draws raised."""
+
+    def __init__(self, work) -> None:
+        self.work = work
+        self.future: Future | None = None  # set once the GUI thread has let go of the context
+
+    def done(self) -> bool:
+        return self.future is not None and self.future.done()
+
+    def wait(self) -> None:
+        if self.future is None:
+            raise RuntimeError("waiting for draws not handed to the step thread yet (the GUI thread holds the context)")
+        wait_for([self.future])
+
+    def check(self) -> None:
+        if self.future is not None:
+            self.future.result()
+
+
 class _ContextOwner:
     """Releases a view's context (its GL objects go with it) and its turn when Qt destroys it."""
 
     def __init__(self) -> None:
         self.ctx: moderngl.Context | None = None
+        self.worker: _WorkerStep | None = None  # the view's last work in the step thread
 
     def __call__(self, *_) -> None:
+        if self.worker is not None:
+            self.worker.wait()
         GL_QUEUE.give_back(self)
         GL_QUEUE.waiting.discard(self)
         if self.ctx is not None:
@@ -104,7 +140,10 @@ class _GLView(QWidget):
         self._poll.timeout.connect(self._advance_frame)
         self._tried = False
         self._last: QPointF | None = None
-        self._pending: list = []
+        self._pending: list = []  # work for the context, waiting for it (not made yet, or in the step thread)
+        self._handoff: _WorkerStep | None = None  # work for the step thread once the GUI thread lets go
+        self._worker: _WorkerStep | None = None  # the step thread's work with this view's context
+        self._set_up = False  # setup() has run: work waiting for the context may run
         self.gl_inits = 0  # contexts made: one per view (re-parenting keeps it)
         self._owner = _ContextOwner()
         self.destroyed.connect(self._owner)
@@ -142,20 +181,53 @@ class _GLView(QWidget):
             self.ctx = None
             self.failed.emit(f"OpenGL is not available for this view: {str(e).splitlines()[0] if str(e) else e}")
             return
-        pending, self._pending = self._pending, []
-        for fn in pending:
-            self.when_ready(fn)
+        self._set_up = True
+        with self.current():  # runs the work that waited for the context
+            pass
         self.update()
 
+    def busy_elsewhere(self) -> bool:
+        """Whether the step thread holds the context (the GUI thread must not take it now)."""
+        return self._worker is not None and not self._worker.done()
+
     def makeCurrent(self) -> None:
+        """Take the context (waiting for the step thread if it holds it), then run the work
+        that waited for it, in order."""
         if self._current == 0:
+            if self._worker is not None:
+                self._worker.wait()
             self.ctx.__enter__()
         self._current += 1
+        if self._current == 1 and self._set_up:
+            try:
+                while self._pending:
+                    self._pending.pop(0)()
+            except BaseException:
+                self.doneCurrent()
+                raise
 
     def doneCurrent(self) -> None:
+        """Let go of the context; draws handed to the step thread start now."""
         self._current -= 1
         if self._current == 0:
             self.ctx.__exit__(None, None, None)
+            if self._handoff is not None:
+                self._worker = self._owner.worker = self._handoff
+                self._handoff = None
+                self._worker.future = _step_thread().submit(self._in_step_thread, self._worker.work)
+
+    def _in_step_thread(self, work) -> None:
+        with self.ctx:
+            work()
+            gil_free.finish(self.ctx)
+
+    def hand_off(self, work) -> _WorkerStep:
+        """Run `work` in the step thread, with the context current there, once the GUI thread
+        lets go of it (context current here)."""
+        if self._handoff is not None:
+            raise RuntimeError("one hand-off at a time: the step thread draws a frame or a step, not both")
+        self._handoff = _WorkerStep(work)
+        return self._handoff
 
     @contextmanager
     def current(self):
@@ -167,9 +239,11 @@ class _GLView(QWidget):
             self.doneCurrent()
 
     def when_ready(self, fn) -> None:
-        """Run fn with the context current: now if the view has one, else once it has."""
-        if self.ctx is None:
+        """Run fn with the context current: now if the view has one and holds it, else once it does."""
+        if self.ctx is None or self.busy_elsewhere():
             self._pending.append(fn)
+            if self.ctx is not None:
+                self.update()
             return
         with self.current():
             fn()
@@ -210,6 +284,8 @@ class _GLView(QWidget):
         if self.ctx is None:
             self._poll.stop()
             return
+        if self.busy_elsewhere():
+            return  # asked again at the next poll
         with self.current():
             if self._frame_fence is not None:
                 if not self._frame_fence.done():
@@ -222,21 +298,37 @@ class _GLView(QWidget):
                 self._poll.stop()
 
     def _issue_frame(self) -> None:
-        """paintGL into the framebuffer, fenced (context current)."""
-        self.framebuffer().use()
-        try:
+        """paintGL into the framebuffer (context current): in the step thread where GL can be
+        called there without the GIL, else here, fenced. paintGL draws into `_target`, made
+        here at the view's size: the step thread asks Qt nothing."""
+        target = self.framebuffer()
+
+        def frame() -> None:
+            target.use()
             self.paintGL()
-        except BRDFLabError as e:
-            self.failed.emit(str(e))
-        self._frame_fence, self._dirty = Fence(self.ctx), False
+
+        if gil_free.available(self.ctx):
+            self._frame_fence = self.hand_off(frame)
+        else:
+            try:
+                frame()
+            except BRDFLabError as e:
+                self.failed.emit(str(e))
+            self._frame_fence = Fence(self.ctx)
+        self._dirty = False
         if not self._poll.isActive():
             self._poll.start()
 
     def _read_frame(self) -> None:
         """The issued frame, read back as the image shown (context current)."""
         _, colour, _, (w, h) = self._target
-        self._frame_fence = None
+        landed, self._frame_fence = self._frame_fence, None
         GL_QUEUE.give_back(self._owner)
+        if isinstance(landed, _WorkerStep):
+            try:
+                landed.check()
+            except BRDFLabError as e:
+                self.failed.emit(str(e))
         rows = np.frombuffer(colour.read(alignment=1), np.uint8).reshape(h, w, 4)[::-1]
         frame = QImage(np.ascontiguousarray(rows).tobytes(), w, h, 4 * w, QImage.Format_RGBX8888).copy()
         frame.setDevicePixelRatio(self.devicePixelRatioF())
@@ -258,8 +350,7 @@ class _GLView(QWidget):
     def resizeEvent(self, event) -> None:
         super().resizeEvent(event)
         if self.ctx is not None:
-            with self.current():
-                self.resizeGL(*self.pixel_size())
+            self.when_ready(lambda: self.resizeGL(*self.pixel_size()))
         self.update()
 
     def resizeGL(self, w: int, h: int) -> None:
@@ -275,6 +366,7 @@ class _GLView(QWidget):
                 self.settle()
                 if self._frame_fence is None and self._dirty and self.can_draw():
                     self._issue_frame()
+            with self.current():  # a frame handed to the step thread went when the context was let go
                 if self._frame_fence is not None:
                     self._frame_fence.wait()
                     self._read_frame()
@@ -330,9 +422,9 @@ class LobeView(_GLView):
         return self.viewer.camera
 
     def paintGL(self) -> None:
-        w, h = self.pixel_size()
+        fbo, _, _, (w, h) = self._target
         self.ctx.viewport = (0, 0, w, h)
-        self.framebuffer().clear(*BACKGROUND, 1.0, depth=1.0)
+        fbo.clear(*BACKGROUND, 1.0, depth=1.0)
         self.viewer.draw(w, h)
         self._legend = self.viewer.legend()
 
@@ -582,6 +674,8 @@ class ObjectView(_GLView):
         if self.ctx is None or self.blank or not self.isVisible() or getattr(self.renderer, "material", None) is None:
             self._timer.stop()  # nothing to refine: the poll would spin the GUI thread
             return
+        if self.busy_elsewhere():
+            return  # the step thread draws: asked again at the next tick
         with self.current():
             try:
                 if self._flight is not None and not self._landed():
@@ -601,6 +695,8 @@ class ObjectView(_GLView):
             return False
         self._flight = None
         GL_QUEUE.give_back(self._owner)
+        if isinstance(fence, _WorkerStep):
+            fence.check()  # what the draws raised, raised here
         spent = time.perf_counter() - began
         self._step_samples = int(max(1, min(256, n * self.STEP_S / max(spent, 1e-4))))
         if image is self._progressive:  # not restarted meanwhile: show it
@@ -633,10 +729,17 @@ class ObjectView(_GLView):
             return  # the timer asks again
         n = min(self._step_samples, max(1, p.needed - p.drawn)) if p.drawn else 1  # a first step also lays depth
         began = time.perf_counter()
-        for image in (p, self._progressive_b):
-            if image is not None:
+        images = [image for image in (p, self._progressive_b) if image is not None]
+
+        def step() -> None:
+            for image in images:
                 image.step(n)
-        self._flight = (Fence(self.ctx), p, n, began)
+
+        if gil_free.available(self.ctx):  # drawn in the step thread, the GIL let go while GL works
+            self._flight = (self.hand_off(step), p, n, began)
+        else:
+            step()
+            self._flight = (Fence(self.ctx), p, n, began)
 
     def can_draw(self) -> bool:
         """Drawn images only: samples that have landed, or the background of a blank view."""
@@ -707,8 +810,7 @@ class ObjectView(_GLView):
             painter.end()
 
     def paintGL(self) -> None:
-        fbo = self.framebuffer()
-        w, h = self.pixel_size()
+        fbo, _, _, (w, h) = self._target
         self.ctx.viewport = (0, 0, w, h)
         image = self._progressive
         self._drawing_difference = False

@@ -11,6 +11,7 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,14 @@ class EnvironmentMap:
     @property
     def height(self) -> int:
         return self.data.shape[0]
+
+    @cached_property
+    def mips(self) -> list[np.ndarray]:
+        """Its mip levels averaged by solid angle (`mip_pyramid.solid_angle_mips`), computed
+        once: the window computes them in the thread that reads the map, not while it draws."""
+        from brdflab.lighting.mip_pyramid import solid_angle_mips
+
+        return solid_angle_mips(self.data)
 
     def texel_directions(self) -> tuple[np.ndarray, np.ndarray]:
         """World direction of each texel centre (H, W, 3) and its solid angle (H, 1)."""

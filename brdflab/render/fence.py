@@ -10,44 +10,18 @@ from `eglGetProcAddress`; elsewhere `Fence` waits (`finish`), as before.
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
-from functools import cache
-
 import moderngl
+
+from brdflab.render import gil_free
 
 GL_SYNC_GPU_COMMANDS_COMPLETE = 0x9117
 GL_ALREADY_SIGNALED = 0x911A
 GL_CONDITION_SATISFIED = 0x911C
 
 
-@cache
-def _entry_points() -> tuple | None:
-    """(glFenceSync, glClientWaitSync, glDeleteSync, glFlush) through EGL, or None."""
-    try:
-        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
-    except OSError:
-        return None
-    get = egl.eglGetProcAddress
-    get.restype, get.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
-    kinds = {
-        b"glFenceSync": ctypes.CFUNCTYPE(ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint),
-        b"glClientWaitSync": ctypes.CFUNCTYPE(ctypes.c_uint, ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint64),
-        b"glDeleteSync": ctypes.CFUNCTYPE(None, ctypes.c_void_p),
-        b"glFlush": ctypes.CFUNCTYPE(None),
-    }
-    functions = []
-    for name, kind in kinds.items():
-        address = get(name)
-        if not address:
-            return None
-        functions.append(kind(address))
-    return tuple(functions)
-
-
 def fences_available(ctx: moderngl.Context) -> bool:
     """Whether `Fence(ctx)` asks without waiting (an EGL context, made by render.context)."""
-    return (ctx.extra or {}).get("backend") == "egl" and _entry_points() is not None
+    return gil_free.available(ctx)
 
 
 class Fence:
@@ -57,22 +31,22 @@ class Fence:
         self._ctx = ctx
         self._sync = None
         if fences_available(ctx):
-            fence_sync, _, _, flush = _entry_points()
-            self._sync = fence_sync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0)
-            flush()  # start the work now: a fence nobody flushed may never signal
+            gl = gil_free.entry_points()
+            self._sync = gl["FenceSync"](GL_SYNC_GPU_COMMANDS_COMPLETE, 0)
+            gl["Flush"]()  # start the work now: a fence nobody flushed may never signal
         self._done = self._sync is None and self._wait()
 
     def _wait(self) -> bool:
-        self._ctx.finish()
+        gil_free.finish(self._ctx)
         return True
 
     def done(self) -> bool:
         """True once everything issued before the fence has finished (never blocks on EGL)."""
         if self._done:
             return True
-        _, client_wait, delete, _ = _entry_points()
-        if client_wait(self._sync, 0, 0) in (GL_ALREADY_SIGNALED, GL_CONDITION_SATISFIED):
-            delete(self._sync)
+        gl = gil_free.entry_points()
+        if gl["ClientWaitSync"](self._sync, 0, 0) in (GL_ALREADY_SIGNALED, GL_CONDITION_SATISFIED):
+            gl["DeleteSync"](self._sync)
             self._sync, self._done = None, True
         return self._done
 
@@ -80,6 +54,6 @@ class Fence:
         """Block until done (what reading the result back would do anyway)."""
         if not self._done:
             if self._sync is not None:
-                _entry_points()[2](self._sync)
+                gil_free.entry_points()["DeleteSync"](self._sync)
                 self._sync = None
             self._done = self._wait()

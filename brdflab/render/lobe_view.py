@@ -14,6 +14,7 @@ import moderngl
 import numpy as np
 
 from brdflab.geometry.geodesic import geodesic_hemisphere
+from brdflab.render import gil_free
 from brdflab.geometry.lobe_surface import CHANNELS, LobeShape, lobe_radii
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.geometry.vec import spherical_to_cartesian
@@ -217,7 +218,7 @@ class LobeViewer:
             if alpha < 1.0:
                 self._draw_translucent(layer.vaos[index])
             else:
-                layer.vaos[index].render(moderngl.TRIANGLES)
+                gil_free.draw(self.ctx, layer.vaos[index], moderngl.TRIANGLES)
 
     def _draw_translucent(self, vao: moderngl.VertexArray) -> None:
         """A translucent lobe blended once per pixel, its nearest surface only: a depth-only
@@ -231,11 +232,11 @@ class LobeViewer:
         # only when the framebuffer is bound again: a masked pre-pass drew its colour, opaque)
         self.ctx.blend_func = moderngl.ZERO, moderngl.ONE
         try:
-            vao.render(moderngl.TRIANGLES)
+            gil_free.draw(self.ctx, vao, moderngl.TRIANGLES)
             fbo.depth_mask = False
             self.ctx.depth_func = "<="
             self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-            vao.render(moderngl.TRIANGLES)
+            gil_free.draw(self.ctx, vao, moderngl.TRIANGLES)
         finally:
             self.ctx.enable_only(moderngl.DEPTH_TEST)
             fbo.depth_mask = True
@@ -312,7 +313,7 @@ class LobeViewer:
         self._line_vbo.orphan(lines.nbytes)
         self._line_vbo.write(lines.tobytes())
         self._lines["u_view_projection"].write(gl_matrix(vp))
-        self._line_vao.render(moderngl.LINES, vertices=len(lines))
+        gil_free.draw(self.ctx, self._line_vao, moderngl.LINES, len(lines))
 
     def view_projection(self, width: int, height: int) -> np.ndarray:
         return self.camera.projection(width / max(height, 1)) @ self.camera.view() @ _Z_UP

@@ -29,6 +29,7 @@ from brdflab.io.user_cache import code_digest, entry_key, read_entry, write_entr
 from brdflab.models.files import backend
 from brdflab.models.files.glsl_text import OVER
 from brdflab.models.files.limits import MAX_LOOP_STEPS
+from brdflab.render import gil_free
 from brdflab.render.glsl import GLSL_VERSION, MAX_PARAMS, shader_source
 
 BATCH = 1 << 16  # pairs per draw
@@ -134,7 +135,7 @@ class _GlThread:
                 content.append((buffers[-1], " ".join(fmt if nm in present else pad for nm in names), *present))
             result = ctx.buffer(reserve=(e - s) * 16)
             vao = ctx.vertex_array(prog, content)
-            vao.transform(result, mode=moderngl.POINTS, vertices=e - s)
+            gil_free.transform_points(ctx, vao, result, e - s)
             out[s:e] = np.frombuffer(result.read(), np.float32).reshape(-1, 4)
             for b in buffers + [result]:
                 b.release()

@@ -18,6 +18,7 @@ from brdflab.errors import BRDFLabError
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.sources.proxy import measured_sampler, proxy_lobes, render_table
 from brdflab.io.mesh import Mesh
+from brdflab.render import gil_free
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.prefiltered import PrefilteredLighting
 from brdflab.lighting.prefilter import LIGHTS
@@ -25,7 +26,6 @@ from brdflab.lighting.split_sum import ALBEDO_PHIS, TAPS
 from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 from brdflab.render.tabulated import TabulatedTextures
 from brdflab.lighting.env_sampling import environment_distribution
-from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.sampling_sets import lobe_shares, mis_sample_set, pieces_order, sample_set
 from brdflab.lighting.sh_table_auto import AutoTable, known_choice, resolve
 from brdflab.lighting.sh_tables import STANDARD, TableSetting
@@ -115,8 +115,17 @@ class ObjectRenderer:
         material.validate()
         self.material = material
         self.measured = False
-        self._shares = lobe_shares(material)
-        self._uniforms = lobe_uniforms(material, self._shares)
+        self._shares = self._uniforms = None  # when first drawn: see _material_terms
+
+    def _material_terms(self) -> dict:
+        """The lobes' sampling shares and the uniforms that hold them, computed when first
+        drawn: `lobe_shares` samples every lobe (a file model's GLSL too), which the window
+        does in its step thread, not while the user adds the lobe."""
+        if self._shares is None:
+            self._shares = lobe_shares(self.material)
+        if self._uniforms is None:
+            self._uniforms = lobe_uniforms(self.material, self._shares)
+        return self._uniforms
 
     def set_source(self, source) -> None:
         """Any source: analytic materials directly; measured ones as a table texture,
@@ -163,9 +172,7 @@ class ObjectRenderer:
         if self.env_texture is not None:
             self.env_texture.release()
         tex = self.ctx.texture((env.width, env.height), 3, np.ascontiguousarray(env.data, np.float32).tobytes(), dtype="f4")
-        tex.build_mipmaps()  # allocates the levels; their contents average by solid angle:
-        for level, texels in enumerate(solid_angle_mips(env.data)[1:], start=1):
-            tex.write(np.ascontiguousarray(texels).tobytes(), level=level)
+        gil_free.mip_levels(self.ctx, tex, env.mips[1:])  # averaged by solid angle
         tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         tex.repeat_x, tex.repeat_y = True, False
         self.env_texture = tex
@@ -441,7 +448,7 @@ class ObjectRenderer:
         reference = settings.reference_view or self.mesh is None
         models = models_of(self.material)
         prog = self._program(models, settings.mode, reference, self.measured, self.material.n_channels)
-        set_uniforms(prog, self._uniforms)
+        set_uniforms(prog, self._material_terms())
         if self.measured:
             self.table_texture.use(2)
             _set(prog, "u_table", 2)
@@ -488,7 +495,7 @@ class ObjectRenderer:
         if settings.mode == "prefiltered":
             self.prefiltered.bind(prog, self.environment, self.material, settings.env_rotation)
         if reference:
-            self._empty_vao_for(prog).render(moderngl.TRIANGLES, vertices=3)
+            gil_free.draw(self.ctx, self._empty_vao_for(prog), moderngl.TRIANGLES, 3)
         else:
             aspect = settings.width / settings.height
             prog["u_view_projection"].write(gl_matrix(self.camera.projection(aspect) @ self.camera.view()))
@@ -497,7 +504,7 @@ class ObjectRenderer:
             prog["u_model"].write(gl_matrix(model))
             _set(prog, "u_camera_position", tuple(float(x) for x in self.camera.position))
             _set(prog, "u_mesh_tangents", not self.material.isotropic)
-            self._vao(prog, ("mesh", id(prog))).render(moderngl.TRIANGLES)  # one vertex array per program
+            gil_free.draw(self.ctx, self._vao(prog, ("mesh", id(prog))), moderngl.TRIANGLES)  # one vertex array per program
 
     def _empty_vao_for(self, prog: moderngl.Program) -> moderngl.VertexArray:
         key = ("empty", id(prog))
@@ -512,6 +519,7 @@ class ObjectRenderer:
         for MIS half of it drawn from the map (mis_sample_set). With its size: at least one
         sample per lobe, so a set may hold more than `n`. `pieces`: the set will be drawn in
         pieces, its rows in `pieces_order` so that every run from the first is a spread part of it."""
+        self._material_terms()
         if mode == "mis":
             data, fractions, self._env_fraction = mis_sample_set(self._shares, n, rotation)
         else:
@@ -813,4 +821,4 @@ class Display:
         _set(self.program, "u_reinhard", bool(reinhard))
         _set(self.program, "u_gamma", float(gamma))
         _set(self.program, "u_background", tuple(background))
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        gil_free.draw(self.ctx, self.vao, moderngl.TRIANGLES, 3)
