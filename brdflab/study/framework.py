@@ -27,8 +27,8 @@ from brdflab.io.resources import shared_data_dir
 Progress = Callable[[str], None]
 
 # the modules that define parts, in the order a study runs them
-PART_MODULES = ("brdflab.study.viewer", "brdflab.study.lighting", "brdflab.study.prefiltered",
-                "brdflab.study.fitting", "brdflab.study.stability")
+PART_MODULES = ("brdflab.study.viewer", "brdflab.study.lighting", "brdflab.study.lighting_classes",
+                "brdflab.study.prefiltered", "brdflab.study.fitting", "brdflab.study.stability")
 DATA_SLICE = ("merl_slices", "gold-metallic-paint3.slice")  # under the developers' shared data
 
 
