@@ -82,12 +82,13 @@ def _run(scenario: str) -> dict:
     ticks: list[float] = []
     timer = QTimer(interval=10)
     timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
-    stacks = os.environ.get("GUI_BLOCKING_STACKS")  # a file: every thread's stack whenever a gap passes 60 ms
+    # GUI_BLOCKING_STACKS=FILE: every thread's stack whenever a gap passes GUI_BLOCKING_AFTER s (0.06)
+    stacks = os.environ.get("GUI_BLOCKING_STACKS")
     if stacks:
         import faulthandler
 
         dump = open(stacks, "a")
-        timer.timeout.connect(lambda: faulthandler.dump_traceback_later(0.06, file=dump))
+        timer.timeout.connect(lambda: faulthandler.dump_traceback_later(float(os.environ.get("GUI_BLOCKING_AFTER", "0.06")), file=dump))
     shared = _shared()
     began = time.perf_counter()
     timer.start()
