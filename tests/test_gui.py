@@ -31,8 +31,11 @@ def window(qtbot, tmp_path):
 
 
 def open_and_wait(qtbot, w, opener, path):
+    """Open, and wait until the file is read and the object view's renderer has taken it (work
+    for a view's context waits while its step thread draws)."""
     opener(path)
     qtbot.waitUntil(lambda: not w.loading, timeout=30000)
+    w.object_view.catch_up()
 
 
 def lobe_image(w):

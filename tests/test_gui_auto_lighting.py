@@ -57,7 +57,8 @@ def test_auto_lighting_draws_the_cores_choice_and_follows_the_material(window, q
     c, view = window.object_controls, window.object_view
     assert c.tolerance.value() == pytest.approx(100 * DEFAULT_TOLERANCE) and not c.tolerance.isEnabled()
     c.mode.setCurrentText("auto")
-    assert c.tolerance.isEnabled() and "choosing" in c.auto_note.text()
+    assert c.tolerance.isEnabled()
+    qtbot.waitUntil(lambda: "choosing" in c.auto_note.text(), timeout=10000)  # asked once the renderer has the scene
     default_note = chosen_note(qtbot, window)
     env = view.renderer.environment
     assert_shows_and_draws(qtbot, window, choose_lighting(window.workspace.original(), env, DEFAULT_TOLERANCE))

@@ -249,6 +249,13 @@ class _GLView(QWidget):
             fn()
         self.update()
 
+    def catch_up(self) -> None:
+        """Run the work queued for the context now, waiting for the step thread if it holds it:
+        for a reader of the renderer's state that must see every change handed to it."""
+        if self.ctx is not None:
+            with self.current():
+                pass
+
     def update(self, *args) -> None:
         """The image is out of date: draw it again. The draws run while the GUI thread goes
         on; the image shown changes once they are done (a poll reads it back)."""

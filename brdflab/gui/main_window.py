@@ -493,6 +493,7 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         from brdflab.material.analytic import AnalyticMaterial
 
         shown = self.workspace.fitted() or self.workspace.original()
+        self.object_view.catch_up()  # the renderer's map once the work queued for it ran
         renderer = getattr(self.object_view, "renderer", None)  # none before OpenGL starts
         scene = {"environment": renderer.environment if renderer is not None else None}
         scene["material" if isinstance(shown, AnalyticMaterial) else "source"] = shown

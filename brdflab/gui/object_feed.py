@@ -106,6 +106,7 @@ class ObjectViewFeed(QObject):
         v.gamma = c.gamma.value()
         order, shadows, variant = c.sh_order.value(), c.sh_shadows.isChecked(), c.sh_variant.currentText()
         table = sh_table_request(c.sh_table.currentText())
+        self._sh_order_applied = order  # the renderer's once its context is free (when_ready)
 
         def apply_sh():
             v.renderer.set_sh_order(order)
@@ -118,7 +119,15 @@ class ObjectViewFeed(QObject):
 
     def request_auto_lighting(self) -> None:
         """Auto lighting: choose again when the drawn source, the map or the tolerance changed
-        — not when the choice itself did (and the prefiltered mode's check, likewise)."""
+        — not when the choice itself did (and the prefiltered mode's check, likewise). Asked
+        once the renderer has taken what was handed to it before (work for the view's context
+        runs in order; while the step thread holds it, it waits): it reads the renderer's source."""
+        if self.view.ctx is None:
+            self._request_now()
+        else:
+            self.view.when_ready(self._request_now)
+
+    def _request_now(self) -> None:
         self._request_prefiltered_check()
         c, v = self.controls, self.view
         if not c.auto:
@@ -202,9 +211,9 @@ class ObjectViewFeed(QObject):
                                   "choose mis or auto" if warns else None)
 
     def _lighting_drawn(self) -> tuple:
-        """The view's lighting: mode, samples and (SH) the renderer's order."""
-        s, r = self.view.settings, self.view.renderer
-        return s.mode, s.samples, r.sh_order if s.mode == "sh" else None
+        """The view's lighting: mode, samples and (SH) the order handed to its renderer."""
+        s = self.view.settings
+        return s.mode, s.samples, self._sh_order_applied if s.mode == "sh" else None
 
     def shutdown(self) -> None:
         self._auto_job.shutdown()

@@ -52,9 +52,7 @@ class WindowActions:
             action.triggered.connect(slot)
             file.addAction(action)
         export = file.addAction("E&xport…")  # the shown fit, else the material (gui/export_dialog.py)
-        export.triggered.connect(lambda: export_dialog(self, self.workspace.fitted() or self.workspace.original(),
-                                                       env=self.object_view.renderer.environment,
-                                                       origin=self.workspace.origin))
+        export.triggered.connect(self._export_dialog)
         for text, view in (("Export lobe &image…", self.lobe_view), ("Export &object image…", self.object_view)):
             action = file.addAction(text)
             action.triggered.connect(lambda _=False, v=view: self.export_image_dialog(v))
@@ -103,6 +101,13 @@ class WindowActions:
         box = QMessageBox(QMessageBox.Information, "BRDFLab — controls", CONTROLS_HELP, QMessageBox.Ok, self)
         box.setAttribute(Qt.WA_DeleteOnClose)
         box.open()
+
+    def _export_dialog(self) -> None:
+        """Export the shown fit, else the material, under the object view's map (the renderer's
+        once the work queued for it ran)."""
+        self.object_view.catch_up()
+        export_dialog(self, self.workspace.fitted() or self.workspace.original(),
+                      env=self.object_view.renderer.environment, origin=self.workspace.origin)
 
     def export_image_dialog(self, view) -> None:
         name = "lobe" if view is self.lobe_view else "object"
