@@ -13,17 +13,17 @@ uniform vec4 u_pref_layers[N_LOBES];   // (lower layer, upper layer, weight of t
 uniform vec4 u_pref_axis[N_LOBES];     // (axis, w): the lobe looks along normalize(mix(n, normalize(axis ∘ wo), w))
 uniform vec3 u_pref_taps[N_LOBES * PREF_TAPS];  // lobe k's lookups: (slope along t, along b, weight); weight 0: none
 uniform float u_pref_rotation;         // the map's turn about +Y, radians
-uniform vec3 u_pref_light_dir[PREF_LIGHTS];    // the lights' directions in the map's frame
-uniform vec3 u_pref_light_power[PREF_LIGHTS];  // their radiance × solid angle
+uniform sampler2D u_pref_lights;      // RGB32F, count × 2: row 0 the lights' directions in the map's frame, row 1 their radiance × solid angle
+uniform int u_pref_light_count;
 
 // Σ over the lights of f(wi, wo) cos θi × power
 vec3 prefiltered_lights(mat3 to_world, vec3 wo) {
     float c = cos(u_pref_rotation), s = sin(u_pref_rotation);
     vec3 color = vec3(0.0);
-    for (int j = 0; j < PREF_LIGHTS; j++) {
-        vec3 m = u_pref_light_dir[j];
+    for (int j = 0; j < u_pref_light_count; j++) {
+        vec3 m = texelFetch(u_pref_lights, ivec2(j, 0), 0).rgb;
         vec3 wi = vec3(c * m.x - s * m.z, m.y, s * m.x + c * m.z) * to_world;  // env_uv's turn undone, to local
-        if (wi.z > 0.0) color += material_eval(wi, wo) * wi.z * u_pref_light_power[j];
+        if (wi.z > 0.0) color += material_eval(wi, wo) * wi.z * texelFetch(u_pref_lights, ivec2(j, 1), 0).rgb;
     }
     return color;
 }

@@ -125,14 +125,16 @@ GLOSSY = {
 @pytest.mark.parametrize("lobe", sorted(GLOSSY))
 def test_glossy_is_close_at_normal_views_and_fails_at_grazing_ones(renderer, maps, name, lobe):
     """Within 6 % where θo < 30°; at 65–85° (the n = v assumption's known failure: the lobe's
-    stretch and shift at grazing views are lost) at least twice that band's error."""
+    stretch and shift at grazing views are lost) at least half again that band's error (1.9–5×
+    since a bright area's texels are lit exactly: forest's sky through the leaves was blurred
+    across the horizon)."""
     mat, env = GLOSSY[lobe], maps[name]
     img, ref = render(renderer, env, mat), environment_image(mat, env, SIZE, SIZE)
     inside, angle = sphere_view(SIZE, SIZE).inside, view_angles()
     normal = relative_rmse(img, ref, inside & (angle < 30.0))
     grazing = relative_rmse(img, ref, inside & (angle >= 65.0) & (angle < 85.0))
     assert normal < 0.06
-    assert grazing > 2.0 * normal
+    assert grazing > 1.5 * normal
 
 
 def test_energy_is_right_for_every_model_in_a_white_furnace(renderer):
@@ -206,3 +208,29 @@ def test_study_part_maps_the_error_over_glossiness_and_view_angle(quick_study):
     assert errors.shape == (len(QUICK_EXPONENTS), len(BANDS)) and np.isfinite(errors).all()
     assert (errors[:, -1] > errors[:, 0]).all()  # every lobe is worse at grazing views than at normal ones
 
+
+
+def test_a_bright_area_is_lit_exactly_not_blurred_across_the_horizon(renderer):
+    """A strip light larger than the 32 lights of old was blurred by the lobe's kernel into
+    directions below the surface's horizon (GGX m = 0.3, reference view: up to 41× too bright
+    at grazing views, 624 % per pixel); every texel 4× the map's mean is now a light, evaluated
+    with the clamped cosine (docs/prefiltered.md)."""
+    from brdflab.lighting.env_sampling import LUMINANCE
+    from brdflab.lighting.reference_view import pixel_relative_rmse, refined_environment_image
+    from brdflab.lighting.synthetic_maps import spec
+
+    env = spec("studio-strip").build(128, 64)
+    lum = env.data.astype(float) @ LUMINANCE
+    _, solid = env.texel_directions()
+    mean = float((lum * solid).sum() / np.broadcast_to(solid, lum.shape).sum())
+    _, lights = prefilter.bright_lights(env)
+    assert len(lights) == np.count_nonzero(lum > prefilter.LIGHT_CONTRAST * mean) > prefilter.LIGHTS
+    mat = material(Lobe.create("CookTorranceGGX", [0.5] * 3, m=0.3, F0=1.0))
+    size = 32
+    with renderer.ctx:  # the CLI's test before this one left its own context current
+        image = render(renderer, env, mat, size)
+    error = pixel_relative_rmse(image, refined_environment_image(mat, env, size, size), sphere_view(size, size).inside)
+    assert error < 0.03
+    # a map without bright areas keeps the 32 brightest texels as before
+    sky = spec("overcast").build(128, 64)
+    assert len(prefilter.bright_lights(sky)[1]) == prefilter.LIGHTS

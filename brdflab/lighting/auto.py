@@ -31,7 +31,6 @@ from brdflab.errors import BRDFLabError
 from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
 from brdflab.lighting.envmap import EnvironmentMap
 from brdflab.lighting.mip_pyramid import solid_angle_mips
-from brdflab.lighting.prefilter import LIGHTS
 
 DEFAULT_TOLERANCE = 0.02
 SH_ORDERS = (2, 3, 4, 6, 8)
@@ -142,7 +141,7 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
         cost = FRAME_COST_MS[mode](setting)
         if mode == "prefiltered":
             yield Candidate(mode, None, prefiltered_error(source, proxy, env, view()), cost,
-                            f"split sum: lobe shape at n = v, equivalent roughness; the {LIGHTS} brightest texels exact")
+                            "split sum: lobe shape at n = v, equivalent roughness; the map's brightest texels exact")
         elif mode == "sh":
             truncated = truncation_error(pilot, setting)
             yield Candidate(mode, setting, float(np.hypot(truncated, SH_TABLE_ERROR)), cost,

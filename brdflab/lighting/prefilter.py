@@ -7,12 +7,17 @@ per α in ALPHAS: L̄(r) = ∫ L(l) D(h) max(0, r·l) dl / ∫ D(h) max(0, r·l)
 the n = v = r assumption (the lobe keeps the shape it has at normal view), Karis's r·l weight;
 the Phong kernel is the wi-space lobe of Phong and Lafortune itself, cos^n(r, l) max(0, r·l).
 
-The map's LIGHTS brightest texels are taken out first: each keeps the luminance of the next
-brightest, and its excess becomes a light (direction, radiance × solid angle) that the shading
+The map's brightest texels are taken out first (`light_count`: every texel LIGHT_CONTRAST
+times brighter than the map's mean, at least LIGHTS and at most MAX_LIGHTS of them): each keeps
+the luminance of the next brightest, and its excess becomes a light (direction, radiance × solid angle) that the shading
 evaluates with the material itself, exactly as the quadrature does. A sun convolved into the
 layers was 59–438 % off for glossy lobes (a lobe's tail weighs it by the kernel's shape, not
 the lobe's, and the blend between two roughness layers is far off where it changes by orders of
 magnitude); what is left has a bounded dynamic range, where the kernel's shape matters little.
+A bright area of more texels than the lights (a window, a studio's strip light) left in the
+layers is blurred by the lobe's kernel across the surface's horizon, where the lobe itself
+never reaches: GGX m = 0.3 at grazing views 3–41× too bright under a strip light (624 % per
+pixel), 68 % in a room; taken out as lights it is evaluated with the clamped cosine.
 
 Each layer is the same quadrature over the map's texels as `reference_view.environment_image`
 (texel radiance × exact solid angle, at texel centres), computed in O(H² W log W): the
@@ -45,7 +50,9 @@ KERNELS = ("beckmann", "ggx", "phong")
 MAX_WIDTH = 256  # stack resolution: 256 × 128 texels (~1.4°) at most
 ROWS_PER_CHUNK = 16  # output rows convolved at once (bounds the kernel's memory)
 CACHE_SIZE = 4
-LIGHTS = 32  # the brightest texels lit exactly (shaders/prefiltered.glsl loops over them)
+LIGHTS = 32  # at least this many of the brightest texels are lit exactly
+MAX_LIGHTS = 256  # at most (shaders/prefiltered.glsl loops over them: ~0.1 ms per light of a 256² frame)
+LIGHT_CONTRAST = 4.0  # a texel this many times the map's mean luminance is a light
 
 
 def beckmann_kernel(cos_h: np.ndarray, alpha: float) -> np.ndarray:
@@ -189,13 +196,21 @@ def specular_kernel(kernel: str, alpha: float):
     return lambda c: d(np.sqrt(0.5 * (1.0 + c)), alpha) * np.maximum(c, 0.0)
 
 
-def bright_lights(env: EnvironmentMap, count: int = LIGHTS) -> tuple[EnvironmentMap, np.ndarray]:
-    """The map with its `count` brightest texels (by luminance) dimmed to the next one's
-    luminance, and their excess as lights (count, 6): texel centre direction, radiance ×
-    solid angle (RGB). The two add up to the map exactly, texel by texel."""
+def light_count(lum: np.ndarray, solid: np.ndarray) -> int:
+    """How many of a map's texels are lit exactly: those LIGHT_CONTRAST times brighter than the
+    map's mean luminance (by solid angle), at least LIGHTS, at most MAX_LIGHTS."""
+    mean = float((lum * solid).sum() / np.broadcast_to(solid, lum.shape).sum())
+    return int(np.clip(np.count_nonzero(lum > LIGHT_CONTRAST * mean), LIGHTS, MAX_LIGHTS))
+
+
+def bright_lights(env: EnvironmentMap, count: int | None = None) -> tuple[EnvironmentMap, np.ndarray]:
+    """The map with its `count` (default: `light_count`) brightest texels (by luminance) dimmed
+    to the next one's luminance, and their excess as lights (count, 6): texel centre direction,
+    radiance × solid angle (RGB). The two add up to the map exactly, texel by texel."""
     lum = np.maximum(env.data.astype(float) @ LUMINANCE, 0.0)
+    directions, solid = env.texel_directions()
     order = np.argsort(lum, axis=None)[::-1]
-    count = min(count, lum.size - 1)
+    count = min(light_count(lum, solid) if count is None else count, lum.size - 1)
     level = lum.flat[order[count]]
     top = order[:count]
     keep = np.where(lum.flat[top] > 0.0, level / np.maximum(lum.flat[top], 1e-300), 1.0)
@@ -203,7 +218,6 @@ def bright_lights(env: EnvironmentMap, count: int = LIGHTS) -> tuple[Environment
     excess = data[top] * (1.0 - keep[:, None])
     rest = data.copy()
     rest[top] *= keep[:, None]
-    directions, solid = env.texel_directions()
     solid = np.broadcast_to(solid, lum.shape).ravel()
     lights = np.concatenate([directions.reshape(-1, 3)[top], excess * solid[top, None]], axis=1)
     dimmed = EnvironmentMap(rest.reshape(env.data.shape).astype(np.float32), env.name, env.path)
@@ -273,7 +287,7 @@ _BUILDS = [0]
 def map_key(env: EnvironmentMap) -> str:
     """What identifies a map's stack: its pixels, shape and the stack's resolution."""
     digest = hashlib.blake2b(np.ascontiguousarray(env.data, np.float32).tobytes(), digest_size=16)
-    digest.update(repr((env.data.shape, MAX_WIDTH, ALPHAS, KERNELS, LIGHTS)).encode())
+    digest.update(repr((env.data.shape, MAX_WIDTH, ALPHAS, KERNELS, LIGHTS, MAX_LIGHTS, LIGHT_CONTRAST)).encode())
     return digest.hexdigest()
 
 

@@ -21,7 +21,6 @@ from brdflab.io.mesh import Mesh
 from brdflab.render import gil_free
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.prefiltered import PrefilteredLighting
-from brdflab.lighting.prefilter import LIGHTS
 from brdflab.lighting.split_sum import ALBEDO_PHIS, TAPS
 from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 from brdflab.render.tabulated import TabulatedTextures
@@ -418,7 +417,7 @@ class ObjectRenderer:
                         defines += "#define SH_FIXED_VIEW\n"
                 material += shader_source("sh.glsl")
             if mode == "prefiltered":
-                defines += f"#define PREF_LIGHTS {LIGHTS}\n#define PREF_TAPS {TAPS}\n#define PREF_PHIS {ALBEDO_PHIS}\n"
+                defines += f"#define PREF_TAPS {TAPS}\n#define PREF_PHIS {ALBEDO_PHIS}\n"
                 material += shader_source("prefiltered.glsl")
             self._programs[key] = self.ctx.program(
                 vertex_shader=GLSL_VERSION + defines + shader_source("object_vertex.glsl"),

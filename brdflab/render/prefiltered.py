@@ -18,6 +18,7 @@ from brdflab.material.analytic import AnalyticMaterial
 
 STACK_UNIT = 10  # texture units, clear of the other modes' (0–5)
 ALBEDO_UNIT = 11
+LIGHTS_UNIT = 13  # clear of tabulated.TAB_UNIT (12) too
 
 
 class PrefilteredLighting:
@@ -25,7 +26,7 @@ class PrefilteredLighting:
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        self._stack: tuple[EnvironmentMap, moderngl.TextureArray, np.ndarray] | None = None  # (map, layers, lights)
+        self._stack: tuple[EnvironmentMap, moderngl.TextureArray, moderngl.Texture, int] | None = None  # (map, layers, lights, count)
         self._albedo: tuple[tuple, moderngl.Texture, dict] | None = None
         self._splits: tuple[tuple, list] | None = None  # (material key, material_split) made elsewhere
 
@@ -35,7 +36,8 @@ class PrefilteredLighting:
 
         return (self._stack is not None and self._stack[0] is env) or is_cached(env)
 
-    def _stack_texture(self, env: EnvironmentMap) -> tuple[moderngl.TextureArray, np.ndarray]:
+    def _stack_texture(self, env: EnvironmentMap) -> tuple[moderngl.TextureArray, moderngl.Texture, int]:
+        """The stack's layers, its lights as a texture (count × 2: directions, powers) and their count."""
         from brdflab.lighting.prefilter import prefiltered_stack
 
         if self._stack is None or self._stack[0] is not env:
@@ -45,8 +47,13 @@ class PrefilteredLighting:
             tex = self.ctx.texture_array((stack.width, stack.height, layers.shape[0]), 3, layers.tobytes(), dtype="f4")
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x, tex.repeat_y = True, False
-            self._stack = (env, tex, stack.lights)
-        return self._stack[1], self._stack[2]
+            count = len(stack.lights)
+            rows = np.zeros((2, max(count, 1), 3), np.float32)
+            rows[0, :count], rows[1, :count] = stack.lights[:, :3], stack.lights[:, 3:]
+            lights = self.ctx.texture((rows.shape[1], 2), 3, rows.tobytes(), dtype="f4")
+            lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self._stack = (env, tex, lights, count)
+        return self._stack[1:]
 
     @staticmethod
     def material_key(material: AnalyticMaterial) -> tuple:
@@ -87,13 +94,14 @@ class PrefilteredLighting:
 
         if env is None:
             raise BRDFLabError("no environment map for the prefiltered lighting mode")
-        stack, lights = self._stack_texture(env)
+        stack, lights, count = self._stack_texture(env)
         stack.use(STACK_UNIT)
+        lights.use(LIGHTS_UNIT)
         albedo, uniforms = self._albedo_texture(material)
         albedo.use(ALBEDO_UNIT)
         values = {"u_pref_stack": STACK_UNIT, "u_pref_albedo": ALBEDO_UNIT,
                   "u_pref_rotation": math.radians(rotation_degrees), **uniforms,
-                  "u_pref_light_dir": lights[:, :3], "u_pref_light_power": lights[:, 3:]}
+                  "u_pref_lights": LIGHTS_UNIT, "u_pref_light_count": count}
         for name, value in values.items():
             if name not in program:
                 continue
@@ -105,6 +113,7 @@ class PrefilteredLighting:
     def release_stack(self) -> None:
         if self._stack is not None:
             self._stack[1].release()
+            self._stack[2].release()
         self._stack = None
 
     def release_albedo(self) -> None:

@@ -160,8 +160,9 @@ def draw(numbers: dict, out_dir: Path) -> list[str]:
     fig.colorbar(image, cax=bar, label="relative RMSE (%)")
     caption = (f"Where it breaks (over 10 %): {breaking_bands(numbers)}. Prefiltered lighting prefilters every lobe "
                "as it is at normal view (n = v = r), so the stretched, shifted and horizon-clipped highlights of "
-               "grazing views are lost and the error grows toward the rim. The map's 32 brightest texels (a sun) are "
-               "lit exactly, not prefiltered, so small bright sources no longer blow it up. Broad lobes are looked up "
+               "grazing views are lost and the error grows toward the rim. The map's bright texels (4× its mean "
+               "luminance, 32 to 256 of them: a sun, a window) are lit exactly, not prefiltered, so bright sources "
+               "no longer blow it up. Broad lobes are looked up "
                "along Frostbite's dominant direction (pulled toward n). Lobes sharper than a texel of the "
                f"{numbers.get('reference_texels', [128, 64])[0]}-texel-wide map (n ≈ 3000) compare two "
                "discretisations of the map, not the method.")
