@@ -79,6 +79,24 @@ def test_the_choice_weighs_cheapest_first_and_predicts_nothing_dearer_than_its_p
     assert choice.candidates[-1].label == within[0].label and len(weighed) < len(every)
 
 
+def test_a_map_with_bright_areas_makes_prefiltered_dearer_by_its_lights():
+    """Its stack lights the bright areas exactly (studio-strip: 120 lights, ~0.11 ms a light per
+    256² frame): the frame-cost model weighs prefiltered after what its lights make cheaper."""
+    from brdflab.lighting.auto import LIGHTS, frame_cost, predict_all
+    from brdflab.lighting.prefilter import bright_lights, reduced
+
+    material = lobe("Lambertian")
+    costs = {}
+    for name in ("overcast", "studio-strip"):
+        env = spec(name).build(128, 64)
+        lights = len(bright_lights(reduced(env))[1])
+        (pref,) = [c for c in predict_all(material, material, env, make_pilot(material, env)) if c.mode == "prefiltered"]
+        assert pref.cost_ms == pytest.approx(frame_cost("prefiltered", None, lights))
+        costs[name] = (lights, pref.cost_ms)
+    assert costs["overcast"] == (LIGHTS, pytest.approx(5.0))
+    assert costs["studio-strip"][0] > LIGHTS and costs["studio-strip"][1] > 2 * costs["overcast"][1]
+
+
 def test_a_map_met_for_the_first_time_is_judged_without_building_its_stack():
     """Render Auto meeting a map for the first time predicts the prefiltered image from the
     few layers the material reads (the whole stack, 37 layers, took 1.3–2 s: most of a first

@@ -31,6 +31,7 @@ from brdflab.errors import BRDFLabError
 from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
 from brdflab.lighting.envmap import EnvironmentMap
 from brdflab.lighting.mip_pyramid import solid_angle_mips
+from brdflab.lighting.prefilter import LIGHTS, bright_lights, reduced
 
 DEFAULT_TOLERANCE = 0.02
 SH_ORDERS = (2, 3, 4, 6, 8)
@@ -39,9 +40,10 @@ SH_TABLE_ERROR = 0.005
 PREFILTERED_BOUND = 0.05  # issue 36: the split sum within 5 % per pixel, or the mode says it is not
 # milliseconds per 128² reference-view frame on the machine the lab was measured on
 # (llvmpipe; docs/bench/lighting_auto.json has this machine's own): only the order matters; prefiltered doubled
-# with its 32 exact lights (9.4 → 19.9 ms per 256² frame, docs/bench/prefiltered.json)
-FRAME_COST_MS = {"prefiltered": lambda s: 5.0, "sh": lambda L: 0.28 * L**4,
-                 "fis": lambda n: 1.7 * n, "mis": lambda n: 2.6 * n}
+# with its 32 exact lights (9.4 → 19.9 ms per 256² frame, docs/bench/prefiltered.json), and a map's bright
+# areas add lights: 3.1 ms + 0.11 ms a light per 256² frame (32, 128, 256 lights: 6.7, 17.3, 31.9 ms)
+FRAME_COST_MS = {"prefiltered": lambda lights: 5.0 * (3.1 + 0.1125 * lights) / (3.1 + 0.1125 * LIGHTS),
+                 "sh": lambda L: 0.28 * L**4, "fis": lambda n: 1.7 * n, "mis": lambda n: 2.6 * n}
 
 
 @dataclass(frozen=True)
@@ -119,11 +121,17 @@ def map_character(pilot: Pilot) -> str:
     return f"map: its brightest 1 % of texels carry {100 * top[:k].sum() / max(top.sum(), 1e-300):.0f} % of its power"
 
 
-def settings() -> list[tuple[str, int | None]]:
-    """Every candidate (mode, setting), cheapest first by the frame-cost model."""
+def frame_cost(mode: str, setting: int | None, lights: int = LIGHTS) -> float:
+    """The frame-cost model's milliseconds (`lights`: the prefiltered stack's exact lights)."""
+    return FRAME_COST_MS[mode](lights if mode == "prefiltered" else setting)
+
+
+def settings(lights: int = LIGHTS) -> list[tuple[str, int | None]]:
+    """Every candidate (mode, setting), cheapest first by the frame-cost model (`lights`: the
+    prefiltered stack's for the map)."""
     out = [("prefiltered", None), *(("sh", L) for L in SH_ORDERS),
            *(("fis", n) for n in SAMPLE_COUNTS), *(("mis", n) for n in SAMPLE_COUNTS)]
-    return sorted(out, key=lambda m: FRAME_COST_MS[m[0]](m[1]))
+    return sorted(out, key=lambda m: frame_cost(*m, lights))
 
 
 def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Candidate]:
@@ -137,8 +145,9 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
 
     view = cache(lambda: view_pilot(source, proxy, env))
     levels = cache(lambda: [level.astype(float) for level in solid_angle_mips(env.data)])
-    for mode, setting in settings():
-        cost = FRAME_COST_MS[mode](setting)
+    lights = len(bright_lights(reduced(env))[1])  # as the map's stack holds them
+    for mode, setting in settings(lights):
+        cost = frame_cost(mode, setting, lights)
         if mode == "prefiltered":
             yield Candidate(mode, None, prefiltered_error(source, proxy, env, view()), cost,
                             "split sum: lobe shape at n = v, equivalent roughness; the map's brightest texels exact")
