@@ -65,3 +65,28 @@ def test_work_for_a_context_held_by_the_step_thread_waits_and_runs_in_order(qtbo
         view.hand_off(lambda: gate.wait(30))  # the gate is open: done at once
     assert not view.grabFramebuffer().isNull()
     w.close()
+
+
+def test_without_gil_free_gl_the_views_draw_on_the_gui_thread(qtbot, tmp_path, monkeypatch):
+    """A context whose GL entry points ctypes cannot reach (not EGL): frames and steps run on the
+    GUI thread, waited for, and the window refines and shows its image as before."""
+    from PySide6.QtCore import QSettings
+
+    from brdflab.gui.main_window import MainWindow
+    from brdflab.render import gil_free
+
+    monkeypatch.setattr(gil_free, "available", lambda ctx: False)
+    w = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat))
+    w.maybe_save = lambda: True
+    qtbot.addWidget(w)
+    w.show()
+    view = w.object_view
+    qtbot.waitUntil(lambda: view.ctx is not None and view.samples_done >= 16, timeout=60000)
+    assert not view.busy_elsewhere() and view._worker is None  # nothing went to the step thread
+    image = view.grabFramebuffer()
+    pixels = image.constBits()
+    assert not image.isNull() and len(set(bytes(pixels)[::97])) > 10  # an image, not the background
+    w.editor.lobe_added.emit("Ward")
+    qtbot.waitUntil(lambda: view.samples_done >= 16 and view._progressive.renderer.material.lobes[-1].model.name == "Ward",
+                    timeout=60000)
+    w.close()

@@ -96,7 +96,7 @@ def test_gui_thread_stays_responsive_while_editing(window, qtbot):
 
 
 def test_gui_thread_stays_responsive_while_refining(window, qtbot):
-    """The object view's steps are drawn while the GUI thread goes on (fenced, not waited for)."""
+    """The object view's steps are drawn while the GUI thread goes on (in the step thread, not waited for)."""
     view = window.object_view
     window.editor.lobe_added.emit("Ward")
     window.object_controls.mode.setCurrentText("fis")

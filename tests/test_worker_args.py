@@ -1,5 +1,4 @@
-"""Large arrays reach worker processes through shared memory (gui/background.py), and GL
-fences say when a view's draws are done without waiting (render/fence.py)."""
+"""Large arrays reach worker processes through shared memory (gui/background.py)."""
 
 import multiprocessing
 import pickle
@@ -41,28 +40,6 @@ def test_a_worker_process_gets_the_same_arrays():
         total, small, label, writeable = submit(pool, _checksum, table, np.arange(3), "x").result(timeout=120)
     assert total == pytest.approx(float(table.sum()), rel=1e-12)
     assert small == [0, 1, 2] and label == "x" and writeable
-
-
-def test_a_fence_reports_done_once_the_draws_are_done():
-    from brdflab.errors import BRDFLabError
-    from brdflab.render.context import create_context
-    from brdflab.render.fence import Fence, fences_available
-
-    try:
-        ctx = create_context()
-    except BRDFLabError as e:
-        pytest.skip(str(e))
-    with ctx:
-        fbo = ctx.simple_framebuffer((256, 256))
-        fbo.use()
-        fbo.clear(0.25, 0.5, 0.75, 1.0)
-        fence = Fence(ctx)
-        if fences_available(ctx):
-            assert fence._sync is not None  # a real fence, asked without waiting
-        fence.wait()
-        assert fence.done()
-        assert np.frombuffer(fbo.read(), np.uint8)[:3].tolist() == [64, 128, 191]
-    ctx.release()
 
 
 def test_without_room_in_shared_memory_arrays_go_through_the_pipe(monkeypatch):

@@ -61,9 +61,7 @@ class FitControl:
     def _object_view_maps(self) -> list | None:
         """The object view's environment map, which the image metric renders under in the
         window (None before OpenGL starts: the metric's default maps)."""
-        self.object_view.catch_up()  # a map just opened is the renderer's once its queued work ran
-        renderer = getattr(self.object_view, "renderer", None)
-        environment = renderer.environment if renderer is not None else None
+        environment = self.object_view.environment_map()
         return None if environment is None else [environment]
 
     def _object_view_frames(self) -> tuple:

@@ -25,7 +25,6 @@ from PySide6.QtWidgets import QWidget
 from brdflab.errors import BRDFLabError
 from brdflab.render import gil_free
 from brdflab.render.context import create_context
-from brdflab.render.fence import Fence
 from brdflab.render.lobe_view import LobeViewer
 from brdflab.render.object_view import (
     DIFFERENCE_TICKS,
@@ -81,15 +80,30 @@ def _step_thread() -> ThreadPoolExecutor:
     return ThreadPoolExecutor(max_workers=1, thread_name_prefix="brdflab-gl-steps")
 
 
-class _WorkerStep:
-    """Draws handed to the step thread, with the view's context current there: a program's
-    first draw compiles it (seconds on a busy machine, with Mesa's shader cache off), and the
-    GUI thread goes on meanwhile, showing the image it has (issue 35). `done` and `wait` as a
-    Fence's; `check` raises what the draws raised."""
+class _Draws:
+    """A view's draws (a frame, a refinement step), run in the step thread with the view's
+    context current there where GL can be called without the GIL: a program's first draw
+    compiles it (seconds on a busy machine, with Mesa's shader cache off), and the GUI thread
+    goes on meanwhile, showing the image it has (issue 35). Elsewhere they run at once, on the
+    GUI thread (`ran_here`). `done` asks without waiting; `check` raises what the draws raised."""
 
     def __init__(self, work) -> None:
         self.work = work
         self.future: Future | None = None  # set once the GUI thread has let go of the context
+
+    @classmethod
+    def ran_here(cls, work, ctx: moderngl.Context) -> "_Draws":
+        """The draws run now, in this thread, and waited for."""
+        draws = cls(work)
+        draws.future = Future()
+        try:
+            work()
+            ctx.finish()
+        except Exception as e:  # raised where the draws are checked, as the step thread's are
+            draws.future.set_exception(e)
+        else:
+            draws.future.set_result(None)
+        return draws
 
     def done(self) -> bool:
         return self.future is not None and self.future.done()
@@ -109,7 +123,7 @@ class _ContextOwner:
 
     def __init__(self) -> None:
         self.ctx: moderngl.Context | None = None
-        self.worker: _WorkerStep | None = None  # the view's last work in the step thread
+        self.worker: _Draws | None = None  # the view's last work in the step thread
 
     def __call__(self, *_) -> None:
         if self.worker is not None:
@@ -135,14 +149,14 @@ class _GLView(QWidget):
         self._target: tuple | None = None  # (framebuffer, colour, depth, size) paintGL draws into
         self._frame: QImage | None = None  # the last image drawn: what the view shows
         self._dirty = True  # the frame is out of date
-        self._frame_fence: Fence | None = None  # a frame drawn, not read back yet
+        self._frame_draws: _Draws | None = None  # a frame drawn, not read back yet
         self._poll = QTimer(self, interval=4)
         self._poll.timeout.connect(self._advance_frame)
         self._tried = False
         self._last: QPointF | None = None
         self._pending: list = []  # work for the context, waiting for it (not made yet, or in the step thread)
-        self._handoff: _WorkerStep | None = None  # work for the step thread once the GUI thread lets go
-        self._worker: _WorkerStep | None = None  # the step thread's work with this view's context
+        self._handoff: _Draws | None = None  # work for the step thread once the GUI thread lets go
+        self._worker: _Draws | None = None  # the step thread's work with this view's context
         self._set_up = False  # setup() has run: work waiting for the context may run
         self.gl_inits = 0  # contexts made: one per view (re-parenting keeps it)
         self._owner = _ContextOwner()
@@ -166,9 +180,9 @@ class _GLView(QWidget):
 
     def drop_flight(self) -> None:
         """Wait for the work in flight and forget it unseen (context current)."""
-        if self._frame_fence is not None:
-            self._frame_fence.wait()
-        self._frame_fence, self._dirty = None, True
+        if self._frame_draws is not None:
+            self._frame_draws.wait()
+        self._frame_draws, self._dirty = None, True
 
     def _initialize(self) -> None:
         self._tried = True
@@ -182,8 +196,7 @@ class _GLView(QWidget):
             self.failed.emit(f"OpenGL is not available for this view: {str(e).splitlines()[0] if str(e) else e}")
             return
         self._set_up = True
-        with self.current():  # runs the work that waited for the context
-            pass
+        self.catch_up()  # the work that waited for the context
         self.update()
 
     def busy_elsewhere(self) -> bool:
@@ -221,13 +234,18 @@ class _GLView(QWidget):
             work()
             gil_free.finish(self.ctx)
 
-    def hand_off(self, work) -> _WorkerStep:
+    def hand_off(self, work) -> _Draws:
         """Run `work` in the step thread, with the context current there, once the GUI thread
         lets go of it (context current here)."""
         if self._handoff is not None:
             raise RuntimeError("one hand-off at a time: the step thread draws a frame or a step, not both")
-        self._handoff = _WorkerStep(work)
+        self._handoff = _Draws(work)
         return self._handoff
+
+    def draw(self, work) -> _Draws:
+        """The draws `work` (context current here): handed to the step thread where GL can be
+        called there without the GIL, else run here and waited for."""
+        return self.hand_off(work) if gil_free.available(self.ctx) else _Draws.ran_here(work, self.ctx)
 
     @contextmanager
     def current(self):
@@ -294,8 +312,8 @@ class _GLView(QWidget):
         if self.busy_elsewhere():
             return  # asked again at the next poll
         with self.current():
-            if self._frame_fence is not None:
-                if not self._frame_fence.done():
+            if self._frame_draws is not None:
+                if not self._frame_draws.done():
                     return
                 self._read_frame()
             if self._dirty and self.can_draw():
@@ -305,37 +323,27 @@ class _GLView(QWidget):
                 self._poll.stop()
 
     def _issue_frame(self) -> None:
-        """paintGL into the framebuffer (context current): in the step thread where GL can be
-        called there without the GIL, else here, fenced. paintGL draws into `_target`, made
-        here at the view's size: the step thread asks Qt nothing."""
+        """paintGL into the framebuffer (context current; `draw`). paintGL draws into `_target`,
+        made here at the view's size: the step thread asks Qt nothing."""
         target = self.framebuffer()
 
         def frame() -> None:
             target.use()
             self.paintGL()
 
-        if gil_free.available(self.ctx):
-            self._frame_fence = self.hand_off(frame)
-        else:
-            try:
-                frame()
-            except BRDFLabError as e:
-                self.failed.emit(str(e))
-            self._frame_fence = Fence(self.ctx)
-        self._dirty = False
+        self._frame_draws, self._dirty = self.draw(frame), False
         if not self._poll.isActive():
             self._poll.start()
 
     def _read_frame(self) -> None:
         """The issued frame, read back as the image shown (context current)."""
         _, colour, _, (w, h) = self._target
-        landed, self._frame_fence = self._frame_fence, None
+        landed, self._frame_draws = self._frame_draws, None
         GL_QUEUE.give_back(self._owner)
-        if isinstance(landed, _WorkerStep):
-            try:
-                landed.check()
-            except BRDFLabError as e:
-                self.failed.emit(str(e))
+        try:
+            landed.check()
+        except BRDFLabError as e:
+            self.failed.emit(str(e))
         rows = np.frombuffer(colour.read(alignment=1), np.uint8).reshape(h, w, 4)[::-1]
         frame = QImage(np.ascontiguousarray(rows).tobytes(), w, h, 4 * w, QImage.Format_RGBX8888).copy()
         frame.setDevicePixelRatio(self.devicePixelRatioF())
@@ -371,11 +379,11 @@ class _GLView(QWidget):
         if self.ctx is not None:
             with self.current():
                 self.settle()
-                if self._frame_fence is None and self._dirty and self.can_draw():
+                if self._frame_draws is None and self._dirty and self.can_draw():
                     self._issue_frame()
             with self.current():  # a frame handed to the step thread went when the context was let go
-                if self._frame_fence is not None:
-                    self._frame_fence.wait()
+                if self._frame_draws is not None:
+                    self._frame_draws.wait()
                     self._read_frame()
         if self._frame is not None:
             return QImage(self._frame)
@@ -482,7 +490,7 @@ class LobeView(_GLView):
 
 class ObjectView(_GLView):
     """The object view; refines progressively while the view is still. A step's draws run
-    while the GUI thread goes on (a fence says when they are done); the image shown is the
+    while the GUI thread goes on (`_GLView.draw`; polled, never waited for); the image shown is the
     last one read back, kept on screen until a restarted image has its first samples."""
 
     STEP_S = 0.05  # a step's GL time: frequent enough images, a new edit waits at most this
@@ -501,7 +509,7 @@ class ObjectView(_GLView):
         self.reinhard = False
         self._progressive = None
         self._step_samples = 1  # adapted so that a step takes about STEP_S
-        self._flight: tuple | None = None  # (fence, image, samples, began) of the step being drawn
+        self._flight: tuple | None = None  # (draws, image, samples, began) of the step being drawn
         self.blank = False  # nothing to show (a material without lobes): draw the background
         # comparing: a second renderer with the same scene and camera shows `compare_source`
         self.compare = "off"  # or "split" (original | fit) or "difference"
@@ -548,6 +556,13 @@ class ObjectView(_GLView):
 
     def camera(self):
         return self.renderer.camera
+
+    def environment_map(self):
+        """The map the renderer lights with, once the work handed to it has run (a map just
+        opened waits in the view's queue while the step thread draws); None before OpenGL starts."""
+        self.catch_up()
+        renderer = getattr(self, "renderer", None)
+        return None if renderer is None else renderer.environment
 
     def restart(self) -> None:
         """Something changed: throw the accumulated samples away. The image shown stays on
@@ -687,7 +702,7 @@ class ObjectView(_GLView):
             try:
                 if self._flight is not None and not self._landed():
                     return
-                if self._frame_fence is not None:  # read it back first: GL would make that wait for the step
+                if self._frame_draws is not None:  # read it back first: GL would make that wait for the step
                     return
                 if not self._prepared_elsewhere():
                     self._issue_step()
@@ -697,13 +712,12 @@ class ObjectView(_GLView):
 
     def _landed(self) -> bool:
         """Whether the step in flight is done; if so, show it (context current)."""
-        fence, image, n, began = self._flight
-        if not fence.done():
+        draws, image, n, began = self._flight
+        if not draws.done():
             return False
         self._flight = None
         GL_QUEUE.give_back(self._owner)
-        if isinstance(fence, _WorkerStep):
-            fence.check()  # what the draws raised, raised here
+        draws.check()  # what the draws raised, raised here
         spent = time.perf_counter() - began
         self._step_samples = int(max(1, min(256, n * self.STEP_S / max(spent, 1e-4))))
         if image is self._progressive:  # not restarted meanwhile: show it
@@ -742,11 +756,7 @@ class ObjectView(_GLView):
             for image in images:
                 image.step(n)
 
-        if gil_free.available(self.ctx):  # drawn in the step thread, the GIL let go while GL works
-            self._flight = (self.hand_off(step), p, n, began)
-        else:
-            step()
-            self._flight = (Fence(self.ctx), p, n, began)
+        self._flight = (self.draw(step), p, n, began)
 
     def can_draw(self) -> bool:
         """Drawn images only: samples that have landed, or the background of a blank view."""

@@ -493,9 +493,7 @@ class MainWindow(DocumentFiles, FitControl, WindowActions, QMainWindow):
         from brdflab.material.analytic import AnalyticMaterial
 
         shown = self.workspace.fitted() or self.workspace.original()
-        self.object_view.catch_up()  # the renderer's map once the work queued for it ran
-        renderer = getattr(self.object_view, "renderer", None)  # none before OpenGL starts
-        scene = {"environment": renderer.environment if renderer is not None else None}
+        scene = {"environment": self.object_view.environment_map()}
         scene["material" if isinstance(shown, AnalyticMaterial) else "source"] = shown
         return scene
 

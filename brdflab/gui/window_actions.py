@@ -103,11 +103,9 @@ class WindowActions:
         box.open()
 
     def _export_dialog(self) -> None:
-        """Export the shown fit, else the material, under the object view's map (the renderer's
-        once the work queued for it ran)."""
-        self.object_view.catch_up()
+        """Export the shown fit, else the material, under the object view's map."""
         export_dialog(self, self.workspace.fitted() or self.workspace.original(),
-                      env=self.object_view.renderer.environment, origin=self.workspace.origin)
+                      env=self.object_view.environment_map(), origin=self.workspace.origin)
 
     def export_image_dialog(self, view) -> None:
         name = "lobe" if view is self.lobe_view else "object"

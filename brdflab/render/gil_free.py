@@ -24,9 +24,6 @@ import numpy as np
 _INDEX_TYPES = {1: 0x1401, 2: 0x1403, 4: 0x1405}  # GL_UNSIGNED_BYTE, _SHORT, _INT
 
 _KINDS = {
-    b"glFenceSync": (ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint),
-    b"glClientWaitSync": (ctypes.c_uint, ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint64),
-    b"glDeleteSync": (None, ctypes.c_void_p),
     b"glFlush": (None,),
     b"glFinish": (None,),
     b"glUseProgram": (None, ctypes.c_uint),
