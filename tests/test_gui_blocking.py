@@ -31,22 +31,29 @@ def test_the_gui_thread_is_not_blocked_by_new_shaders(scenario):
     assert row["max_ms"] < 10 * BUDGET_MS, f"the GUI thread was blocked ({scenario}) for {row['max_ms']} ms"
 
 
-def test_work_for_a_context_held_by_the_step_thread_waits_and_runs_in_order(qtbot, tmp_path):
-    """While the step thread holds a view's context, work for it is queued (the GUI thread
-    does not wait) and runs in order once the thread lets go; a grab waits for the thread."""
-    import threading
-
+def _window_drawing(qtbot, tmp_path, samples: int):
+    """A main window of its own (made after a test's patches), once its object view has drawn `samples`."""
     from PySide6.QtCore import QSettings
 
     from brdflab.gui.main_window import MainWindow
-    from brdflab.render import gil_free
 
     w = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat))
     w.maybe_save = lambda: True
     qtbot.addWidget(w)
     w.show()
+    qtbot.waitUntil(lambda: w.object_view.ctx is not None and w.object_view.samples_done >= samples, timeout=60000)
+    return w
+
+
+def test_work_for_a_context_held_by_the_step_thread_waits_and_runs_in_order(qtbot, tmp_path):
+    """While the step thread holds a view's context, work for it is queued (the GUI thread
+    does not wait) and runs in order once the thread lets go; a grab waits for the thread."""
+    import threading
+
+    from brdflab.render import gil_free
+
+    w = _window_drawing(qtbot, tmp_path, 1)
     view = w.object_view
-    qtbot.waitUntil(lambda: view.ctx is not None and view.samples_done >= 1, timeout=30000)
     if not gil_free.available(view.ctx):
         pytest.skip("not an EGL context: the views draw on the GUI thread")
     qtbot.waitUntil(lambda: not view.busy_elsewhere(), timeout=30000)
@@ -70,18 +77,11 @@ def test_work_for_a_context_held_by_the_step_thread_waits_and_runs_in_order(qtbo
 def test_without_gil_free_gl_the_views_draw_on_the_gui_thread(qtbot, tmp_path, monkeypatch):
     """A context whose GL entry points ctypes cannot reach (not EGL): frames and steps run on the
     GUI thread, waited for, and the window refines and shows its image as before."""
-    from PySide6.QtCore import QSettings
-
-    from brdflab.gui.main_window import MainWindow
     from brdflab.render import gil_free
 
     monkeypatch.setattr(gil_free, "available", lambda ctx: False)
-    w = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat))
-    w.maybe_save = lambda: True
-    qtbot.addWidget(w)
-    w.show()
+    w = _window_drawing(qtbot, tmp_path, 16)
     view = w.object_view
-    qtbot.waitUntil(lambda: view.ctx is not None and view.samples_done >= 16, timeout=60000)
     assert not view.busy_elsewhere() and view._worker is None  # nothing went to the step thread
     image = view.grabFramebuffer()
     pixels = image.constBits()
