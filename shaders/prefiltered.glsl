@@ -4,6 +4,8 @@
 // toward n for rough lobes, Lagarde & de Rousiers 2014).
 // Irradiance: one fetch; per lobe: two albedo texels, and two stack fetches per lookup if it is
 // glossy (one lookup; an anisotropic lobe's: PREF_TAPS around normals spread along its longer axis).
+// A rough isotropic lobe (u_pref_fitted) is instead PREF_LOOKUPS lookups per view cosine, fitted
+// to its shape at that view (brdflab/lighting/view_mixture.py), blended between two cosines.
 // The map's brightest texels are not in the stack: each is a light that the material itself
 // is evaluated at (brdflab/lighting/prefilter.bright_lights), as the quadrature does.
 uniform sampler2DArray u_pref_stack;   // layer 0: irradiance; then α layers per kernel
@@ -12,6 +14,8 @@ uniform float u_pref_albedo_size;      // entries per row, at cos θo = i / (siz
 uniform vec4 u_pref_layers[N_LOBES];   // (lower layer, upper layer, weight of the upper, diffuse share)
 uniform vec4 u_pref_axis[N_LOBES];     // (axis, w): the lobe looks along normalize(mix(n, normalize(axis ∘ wo), w))
 uniform vec3 u_pref_taps[N_LOBES * PREF_TAPS];  // lobe k's lookups: (slope along t, along b, weight); weight 0: none
+uniform sampler2D u_pref_mixture;     // RGB32F, PREF_LOOKUPS × (N_LOBES · PREF_COSINES): row k·PREF_COSINES + i holds lobe k's lookups at cos θo = i / (PREF_COSINES − 1): (ψ, stack layer, weight)
+uniform float u_pref_fitted[N_LOBES];  // 1: lobe k is drawn by its fitted lookups
 uniform float u_pref_rotation;         // the map's turn about +Y, radians
 uniform sampler2D u_pref_lights;      // RGB32F, count × 2: row 0 the lights' directions in the map's frame, row 1 their radiance × solid angle
 uniform int u_pref_light_count;
@@ -26,6 +30,27 @@ vec3 prefiltered_lights(mat3 to_world, vec3 wo) {
         if (wi.z > 0.0) color += material_eval(wi, wo) * wi.z * texelFetch(u_pref_lights, ivec2(j, 1), 0).rgb;
     }
     return color;
+}
+
+// a fitted lobe's prefiltered radiance: each lookup at ψ from n, away from the view, in the
+// plane of incidence; the two view cosines around wo's blended
+vec3 mixture_light(int k, mat3 to_world, vec3 wo) {
+    float x = clamp(wo.z, 0.0, 1.0) * float(PREF_COSINES - 1);
+    int i0 = min(int(x), PREF_COSINES - 2);
+    float f = x - float(i0);
+    vec2 toward = length(wo.xy) > 1e-7 ? normalize(wo.xy) : vec2(1.0, 0.0);
+    vec3 light = vec3(0.0);
+    for (int side = 0; side < 2; side++) {
+        float share = side == 0 ? 1.0 - f : f;
+        int row = k * PREF_COSINES + i0 + side;
+        for (int j = 0; j < PREF_LOOKUPS; j++) {
+            vec3 e = texelFetch(u_pref_mixture, ivec2(j, row), 0).rgb;
+            if (e.z <= 0.0) continue;
+            vec3 d = vec3(-sin(e.x) * toward, cos(e.x));
+            light += share * e.z * texture(u_pref_stack, vec3(env_uv(to_world * d, u_pref_rotation), e.y)).rgb;
+        }
+    }
+    return light;
 }
 
 vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
@@ -45,7 +70,8 @@ vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
         vec3 albedo = mix(mix(texelFetch(u_pref_albedo, ivec2(i0, r0), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, r0), 0).rgb, f),
                           mix(texelFetch(u_pref_albedo, ivec2(i0, r1), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, r1), 0).rgb, f), g);
         vec3 light = layers.w * irradiance / PI;
-        for (int j = 0; j < PREF_TAPS && layers.w < 1.0; j++) {
+        if (u_pref_fitted[k] > 0.5) light += mixture_light(k, to_world, wo);
+        for (int j = 0; j < PREF_TAPS && layers.w < 1.0 && u_pref_fitted[k] < 0.5; j++) {
             vec3 tap = u_pref_taps[k * PREF_TAPS + j];
             if (tap.z <= 0.0) break;
             // the lobe's axis ∘ wo; a tilted tap (an anisotropic lobe's): wo mirrored about its normal

@@ -11,7 +11,7 @@ from brdflab.cli import main
 from brdflab.lighting import prefilter
 from brdflab.lighting.envmap import EnvironmentMap, constant, load_environment, read_exr
 from brdflab.lighting.reference_view import environment_image, relative_rmse, sphere_view
-from brdflab.lighting.split_sum import prefiltered_image
+from brdflab.lighting.split_sum import material_split, prefiltered_image
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.models import all_models
 from brdflab.models.base import SPLIT_SUM_KINDS
@@ -91,14 +91,17 @@ def test_layer_blend_brackets_the_roughness():
 
 def test_the_gpu_draws_what_its_numpy_twin_computes(renderer):
     """shaders/prefiltered.glsl against lighting/split_sum.prefiltered_image, every kind of lobe
-    (anisotropic ones' taps and albedo over φo included) under a map with a sun (the lights),
+    (anisotropic ones' taps and albedo over φo included, and a rough GGX lobe's fitted lookups,
+    lighting/view_mixture.py) under a map with a sun (the lights),
     turned by 45° on the GPU against the map's columns turned in NumPy."""
     data = np.random.default_rng(2).gamma(0.7, 1.0, (32, 64, 3)).astype(np.float32)
     data[10, 20] = 5000.0
     mat = material(Lobe.create("Lambertian", [0.1, 0.2, 0.3]), Lobe.create("Phong", [0.3] * 3, Exponent=40.0),
                    Lobe.create("LafortuneIso", [0.2] * 3, Cxy=0.6, Cz=0.5, Exponent=8.0),
                    Lobe.create("Strauss", [0.5] * 3, smoothness=0.7), Lobe.create("Ward", [0.3] * 3, ax=0.05, ay=0.3),
-                   Lobe.create("Principled", [1.0] * 3, roughness=0.4, anisotropic=0.8))
+                   Lobe.create("Principled", [1.0] * 3, roughness=0.4, anisotropic=0.8),
+                   Lobe.create("CookTorranceGGX", [0.4] * 3, m=0.3, F0=0.6))
+    assert material_split(mat)[-1].mixture is not None
     inside = sphere_view(32, 32).inside
     img = render(renderer, EnvironmentMap(data), mat, 32)
     assert relative_rmse(img, prefiltered_image(mat, EnvironmentMap(data), 32, 32), inside) < 1e-4
@@ -123,18 +126,16 @@ GLOSSY = {
 @needs_shared("envmaps", "forest.exr")
 @pytest.mark.parametrize("name", MAPS)
 @pytest.mark.parametrize("lobe", sorted(GLOSSY))
-def test_glossy_is_close_at_normal_views_and_fails_at_grazing_ones(renderer, maps, name, lobe):
-    """Within 6 % where θo < 30°; at 65–85° (the n = v assumption's known failure: the lobe's
-    stretch and shift at grazing views are lost) at least half again that band's error (1.9–5×
-    since a bright area's texels are lit exactly: forest's sky through the leaves was blurred
-    across the horizon)."""
+def test_glossy_is_close_at_normal_and_at_grazing_views(renderer, maps, name, lobe):
+    """Within 4 % where θo < 30° and within 3 % at 65–85°. The grazing band was the split sum's
+    known failure (7–9 % here, over 1.5× the normal band: the lobe's narrowing, shift and
+    horizon at grazing views lost with its n = v = r shape); rough lobes are now drawn by
+    lookups fitted to their shape at every view (lighting/view_mixture.py): 0.3–1.0 %."""
     mat, env = GLOSSY[lobe], maps[name]
     img, ref = render(renderer, env, mat), environment_image(mat, env, SIZE, SIZE)
     inside, angle = sphere_view(SIZE, SIZE).inside, view_angles()
-    normal = relative_rmse(img, ref, inside & (angle < 30.0))
-    grazing = relative_rmse(img, ref, inside & (angle >= 65.0) & (angle < 85.0))
-    assert normal < 0.06
-    assert grazing > 1.5 * normal
+    assert relative_rmse(img, ref, inside & (angle < 30.0)) < 0.04
+    assert relative_rmse(img, ref, inside & (angle >= 65.0) & (angle < 85.0)) < 0.03
 
 
 def test_energy_is_right_for_every_model_in_a_white_furnace(renderer):
@@ -206,7 +207,14 @@ def test_study_part_maps_the_error_over_glossiness_and_view_angle(quick_study):
     (entry,) = part["maps"].values()
     errors = np.array(entry["errors"], float)
     assert errors.shape == (len(QUICK_EXPONENTS), len(BANDS)) and np.isfinite(errors).all()
-    assert (errors[:, -1] > errors[:, 0]).all()  # every lobe is worse at grazing views than at normal ones
+    # a sharp lobe (not fitted: α < MIN_ROUGHNESS) is worse at grazing views than at normal ones, the
+    # split sum's n = v = r failure; lobes fitted at every view (view_mixture.py) are not (0.3–5.3 %)
+    from brdflab.lighting.view_mixture import MIN_ROUGHNESS
+    from brdflab.models.base import blinn_roughness
+
+    fitted = np.array([blinn_roughness(n) >= MIN_ROUGHNESS for n in QUICK_EXPONENTS])
+    assert fitted.any() and not fitted.all()
+    assert (errors[~fitted, -1] > errors[~fitted, 0]).all() and (errors[fitted, -1] < 0.1).all()
 
 
 

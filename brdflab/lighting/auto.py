@@ -200,5 +200,5 @@ def prefiltered_error(source, proxy, env: EnvironmentMap, view) -> float:
     from brdflab.lighting.prefilter import stack_layers
     from brdflab.lighting.split_sum import material_split, prefiltered_pixels
 
-    wanted = {i for split in material_split(proxy) if split.diffuse_share < 1.0 for i in split.layers[:2]}
+    wanted = set().union(*(split.stack_layers() for split in material_split(proxy)))
     return view.error(prefiltered_pixels(proxy, stack_layers(env, wanted), view.pixels.frames, lit=source))

@@ -29,6 +29,7 @@ import numpy as np
 
 from brdflab.lighting.envmap import EnvironmentMap, direction_to_uv
 from brdflab.lighting.prefilter import PrefilteredStack, layer_blend, prefiltered_stack
+from brdflab.lighting.view_mixture import COSINES, mixture_directions, view_mixture
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 
 ALBEDO_SIZE = 32  # cos θo = 0, 1/31, …, 1
@@ -51,6 +52,15 @@ class LobeSplit:
     diffuse_share: float
     toward_axis: float = 1.0  # the lookup direction: normalize(mix(n, axis ∘ wo, toward_axis))
     taps: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, 1.0),)  # (slope along t, along b, weight) of each lookup's normal
+    mixture: np.ndarray | None = None  # (COSINES, LOOKUPS, 3) of a fitted rough lobe (`view_mixture`): then no taps
+
+    def stack_layers(self) -> set[int]:
+        """The stack's layers its glossy lookups read (none for a diffuse lobe)."""
+        if self.diffuse_share >= 1.0:
+            return set()
+        if self.mixture is not None:
+            return {int(k) for k in self.mixture[..., 1][self.mixture[..., 2] > 0.0]}
+        return set(self.layers[:2])
 
 
 def dominant_weight(alpha: float) -> float:
@@ -111,7 +121,8 @@ def lobe_split(lobe: Lobe) -> LobeSplit:
     if rule.kind == "diffuse":
         return LobeSplit(lobe_albedo_table(lobe), (0, 0, 0.0), (0.0, 0.0, 1.0), 1.0)
     return LobeSplit(lobe_albedo_table(lobe), layer_blend(rule.kernel, rule.roughness), rule.axis,
-                     float(rule.diffuse_share), dominant_weight(rule.roughness), tilt_taps(rule.tilt))
+                     float(rule.diffuse_share), dominant_weight(rule.roughness), tilt_taps(rule.tilt),
+                     view_mixture(lobe))
 
 
 def lookup_direction(split: LobeSplit, tap: tuple[float, float, float], wo: np.ndarray) -> np.ndarray:
@@ -158,6 +169,27 @@ def sample_latlong(layer: np.ndarray, d: np.ndarray) -> np.ndarray:
     return top * (1 - fy) + bottom * fy
 
 
+def mixture_light(mixture: np.ndarray, stack, n: np.ndarray, t: np.ndarray, b: np.ndarray,
+                  wo: np.ndarray) -> np.ndarray:
+    """A fitted lobe's prefiltered radiance (pixels, 3): its lookups at the two view cosines
+    around each pixel's, blended linearly (the shader's loop)."""
+    x = np.clip(wo[:, 2], 0.0, 1.0) * (COSINES - 1)
+    i0 = np.minimum(x.astype(int), COSINES - 2)
+    tangent = np.hypot(wo[:, 0], wo[:, 1])[:, None]  # the view's projection on the surface (t at normal view), world
+    toward = np.where(tangent > 1e-7, wo[:, :2] / np.maximum(tangent, 1e-300), np.array([1.0, 0.0]))
+    toward_view = toward[:, :1] * t + toward[:, 1:2] * b
+    light = np.zeros((len(wo), 3))
+    for row, share in ((i0, 1.0 - (x - i0)), (i0 + 1, x - i0)):
+        psi, layer, weight = np.moveaxis(mixture[row], -1, 0)  # each (pixels, LOOKUPS)
+        d = mixture_directions(psi, n[:, None], toward_view[:, None])
+        for k in np.unique(layer[weight > 0.0]).astype(int):
+            at = weight * (layer == k)
+            pixels, lookups = np.nonzero(at)
+            np.add.at(light, pixels, (share[pixels] * at[pixels, lookups])[:, None]  # a pixel may read a layer twice
+                      * sample_latlong(stack.layers[k], d[pixels, lookups]))
+    return light
+
+
 def prefiltered_image(material: AnalyticMaterial, env: EnvironmentMap, width: int, height: int,
                       stack: PrefilteredStack | None = None) -> np.ndarray:
     """The prefiltered mode's image in the reference view, computed in NumPy."""
@@ -185,7 +217,9 @@ def prefiltered_pixels(material: AnalyticMaterial, stack: PrefilteredStack, fram
     for split, rgb in zip(material_split(material), material.rgb_scales()):
         albedo = albedo_at(split.albedo, wo)
         light = split.diffuse_share * irradiance / np.pi
-        if split.diffuse_share < 1.0:
+        if split.mixture is not None:
+            light = light + mixture_light(split.mixture, stack, n, t, b, wo)
+        elif split.diffuse_share < 1.0:
             lo, hi, w = split.layers
             for tap in split.taps:
                 local = lookup_direction(split, tap, wo)

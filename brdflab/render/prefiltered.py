@@ -19,6 +19,7 @@ from brdflab.material.analytic import AnalyticMaterial
 STACK_UNIT = 10  # texture units, clear of the other modes' (0–5)
 ALBEDO_UNIT = 11
 LIGHTS_UNIT = 13  # clear of tabulated.TAB_UNIT (12) too
+MIXTURE_UNIT = 14
 
 
 class PrefilteredLighting:
@@ -27,7 +28,7 @@ class PrefilteredLighting:
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
         self._stack: tuple[EnvironmentMap, moderngl.TextureArray, moderngl.Texture, int] | None = None  # (map, layers, lights, count)
-        self._albedo: tuple[tuple, moderngl.Texture, dict] | None = None
+        self._albedo: tuple[tuple, moderngl.Texture, moderngl.Texture, dict] | None = None  # (key, albedo, mixtures, uniforms)
         self._splits: tuple[tuple, list] | None = None  # (material key, material_split) made elsewhere
 
     def ready(self, env: EnvironmentMap) -> bool:
@@ -67,8 +68,11 @@ class PrefilteredLighting:
     def remember_splits(self, key: tuple, splits: list) -> None:
         self._splits = (key, splits)
 
-    def _albedo_texture(self, material: AnalyticMaterial) -> tuple[moderngl.Texture, dict]:
+    def _albedo_texture(self, material: AnalyticMaterial) -> tuple[moderngl.Texture, moderngl.Texture, dict]:
+        """The material's albedo table, its fitted lobes' lookups (`view_mixture`; zero rows for
+        the others) and the per-lobe uniforms."""
         from brdflab.lighting.split_sum import TAPS, material_split
+        from brdflab.lighting.view_mixture import COSINES, LOOKUPS
 
         key = self.material_key(material)
         if self._albedo is None or self._albedo[0] != key:
@@ -77,15 +81,20 @@ class PrefilteredLighting:
             table = np.ascontiguousarray(np.concatenate([s.albedo for s in splits]), np.float32)  # (lobes · φo, cos θo, 3)
             tex = self.ctx.texture((table.shape[1], table.shape[0]), 3, table.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # interpolated in the shader
+            rows = np.concatenate([s.mixture if s.mixture is not None else np.zeros((COSINES, LOOKUPS, 3))
+                                   for s in splits]).astype(np.float32)  # (lobes · COSINES, LOOKUPS, 3)
+            mixtures = self.ctx.texture((LOOKUPS, rows.shape[0]), 3, np.ascontiguousarray(rows).tobytes(), dtype="f4")
+            mixtures.filter = (moderngl.NEAREST, moderngl.NEAREST)
             uniforms = {
                 "u_pref_layers": np.array([[*s.layers, s.diffuse_share] for s in splits], np.float32),
                 "u_pref_axis": np.array([[*s.axis, s.toward_axis] for s in splits], np.float32),
                 "u_pref_taps": np.array([list(s.taps) + [(0.0, 0.0, 0.0)] * (TAPS - len(s.taps)) for s in splits],
                                         np.float32),
+                "u_pref_fitted": np.array([float(s.mixture is not None) for s in splits], np.float32),
                 "u_pref_albedo_size": float(table.shape[1]),
             }
-            self._albedo = (key, tex, uniforms)
-        return self._albedo[1], self._albedo[2]
+            self._albedo = (key, tex, mixtures, uniforms)
+        return self._albedo[1:]
 
     def bind(self, program: moderngl.Program, env: EnvironmentMap | None, material: AnalyticMaterial,
              rotation_degrees: float) -> None:
@@ -97,9 +106,10 @@ class PrefilteredLighting:
         stack, lights, count = self._stack_texture(env)
         stack.use(STACK_UNIT)
         lights.use(LIGHTS_UNIT)
-        albedo, uniforms = self._albedo_texture(material)
+        albedo, mixtures, uniforms = self._albedo_texture(material)
         albedo.use(ALBEDO_UNIT)
-        values = {"u_pref_stack": STACK_UNIT, "u_pref_albedo": ALBEDO_UNIT,
+        mixtures.use(MIXTURE_UNIT)
+        values = {"u_pref_stack": STACK_UNIT, "u_pref_albedo": ALBEDO_UNIT, "u_pref_mixture": MIXTURE_UNIT,
                   "u_pref_rotation": math.radians(rotation_degrees), **uniforms,
                   "u_pref_lights": LIGHTS_UNIT, "u_pref_light_count": count}
         for name, value in values.items():
@@ -119,4 +129,5 @@ class PrefilteredLighting:
     def release_albedo(self) -> None:
         if self._albedo is not None:
             self._albedo[1].release()
+            self._albedo[2].release()
         self._albedo = None

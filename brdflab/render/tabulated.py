@@ -19,7 +19,7 @@ import numpy as np
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.render.glsl import models_of, tabulated_slots
 
-TAB_UNIT = 12  # clear of the other modes' texture units (0–7, 10, 11, 13)
+TAB_UNIT = 12  # clear of the other modes' texture units (0–7, 10, 11, 13, 14)
 
 
 def _uniform_tables(rows: int) -> tuple[np.ndarray, np.ndarray]:
