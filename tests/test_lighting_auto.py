@@ -97,6 +97,15 @@ def test_a_map_with_bright_areas_makes_prefiltered_dearer_by_its_lights():
     assert costs["studio-strip"][0] > LIGHTS and costs["studio-strip"][1] > 2 * costs["overcast"][1]
 
 
+def test_a_rough_lobe_drawn_by_fitted_lookups_makes_prefiltered_dearer():
+    """A rough lobe's fitted lookups (lighting/view_mixture.py) cost about half a 32-light frame more."""
+    from brdflab.lighting.auto import LIGHTS, frame_cost, predict_all
+
+    material, env = lobe("CookTorranceGGX", m=0.3, F0=1.0), spec("overcast").build(128, 64)
+    (pref,) = [c for c in predict_all(material, material, env, make_pilot(material, env)) if c.mode == "prefiltered"]
+    assert pref.cost_ms == pytest.approx(frame_cost("prefiltered", None, LIGHTS, 1)) == pytest.approx(7.5, rel=0.01)
+
+
 def test_a_map_met_for_the_first_time_is_judged_without_building_its_stack():
     """Render Auto meeting a map for the first time predicts the prefiltered image from the
     few layers the material reads (the whole stack, 37 layers, took 1.3–2 s: most of a first

@@ -41,8 +41,10 @@ PREFILTERED_BOUND = 0.05  # issue 36: the split sum within 5 % per pixel, or the
 # milliseconds per 128² reference-view frame on the machine the lab was measured on
 # (llvmpipe; docs/bench/lighting_auto.json has this machine's own): only the order matters; prefiltered doubled
 # with its 32 exact lights (9.4 → 19.9 ms per 256² frame, docs/bench/prefiltered.json), and a map's bright
-# areas add lights: 3.1 ms + 0.11 ms a light per 256² frame (32, 128, 256 lights: 6.7, 17.3, 31.9 ms)
-FRAME_COST_MS = {"prefiltered": lambda lights: 5.0 * (3.1 + 0.1125 * lights) / (3.1 + 0.1125 * LIGHTS),
+# areas add lights: 3.1 ms + 0.11 ms a light per 256² frame (32, 128, 256 lights: 6.7, 17.3, 31.9 ms); a rough
+# lobe drawn by its fitted lookups (lighting/view_mixture.py) adds half the 32-light frame (Blinn–Phong n = 100,
+# venice: 10.3 → 15.4 ms per 256² frame, docs/bench/prefiltered.json)
+FRAME_COST_MS = {"prefiltered": lambda lights, fitted=0: 5.0 * (3.1 + 0.1125 * lights + 3.35 * fitted) / (3.1 + 0.1125 * LIGHTS),
                  "sh": lambda L: 0.28 * L**4, "fis": lambda n: 1.7 * n, "mis": lambda n: 2.6 * n}
 
 
@@ -121,17 +123,18 @@ def map_character(pilot: Pilot) -> str:
     return f"map: its brightest 1 % of texels carry {100 * top[:k].sum() / max(top.sum(), 1e-300):.0f} % of its power"
 
 
-def frame_cost(mode: str, setting: int | None, lights: int = LIGHTS) -> float:
-    """The frame-cost model's milliseconds (`lights`: the prefiltered stack's exact lights)."""
-    return FRAME_COST_MS[mode](lights if mode == "prefiltered" else setting)
+def frame_cost(mode: str, setting: int | None, lights: int = LIGHTS, fitted: int = 0) -> float:
+    """The frame-cost model's milliseconds (`lights`: the prefiltered stack's exact lights;
+    `fitted`: the material's lobes drawn by fitted lookups there)."""
+    return FRAME_COST_MS[mode](lights, fitted) if mode == "prefiltered" else FRAME_COST_MS[mode](setting)
 
 
-def settings(lights: int = LIGHTS) -> list[tuple[str, int | None]]:
-    """Every candidate (mode, setting), cheapest first by the frame-cost model (`lights`: the
-    prefiltered stack's for the map)."""
+def settings(lights: int = LIGHTS, fitted: int = 0) -> list[tuple[str, int | None]]:
+    """Every candidate (mode, setting), cheapest first by the frame-cost model (`lights`,
+    `fitted`: the prefiltered frame's, for the map and the material)."""
     out = [("prefiltered", None), *(("sh", L) for L in SH_ORDERS),
            *(("fis", n) for n in SAMPLE_COUNTS), *(("mis", n) for n in SAMPLE_COUNTS)]
-    return sorted(out, key=lambda m: frame_cost(*m, lights))
+    return sorted(out, key=lambda m: frame_cost(*m, lights, fitted))
 
 
 def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Candidate]:
@@ -142,15 +145,18 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
     from functools import cache
 
     from brdflab.lighting.auto_twins import fis_errors, mis_errors, view_pilot
+    from brdflab.lighting.split_sum import material_split
 
     view = cache(lambda: view_pilot(source, proxy, env))
     levels = cache(lambda: [level.astype(float) for level in solid_angle_mips(env.data)])
     lights = len(bright_lights(reduced(env))[1])  # as the map's stack holds them
-    for mode, setting in settings(lights):
-        cost = frame_cost(mode, setting, lights)
+    fitted = sum(split.mixture is not None for split in material_split(proxy))
+    for mode, setting in settings(lights, fitted):
+        cost = frame_cost(mode, setting, lights, fitted)
         if mode == "prefiltered":
             yield Candidate(mode, None, prefiltered_error(source, proxy, env, view()), cost,
-                            "split sum: lobe shape at n = v, equivalent roughness; the map's brightest texels exact")
+                            "split sum: rough lobes fitted at every view, others their shape at n = v; "
+                            "the map's brightest texels exact")
         elif mode == "sh":
             truncated = truncation_error(pilot, setting)
             yield Candidate(mode, setting, float(np.hypot(truncated, SH_TABLE_ERROR)), cost,
