@@ -33,20 +33,24 @@ vec3 prefiltered_lights(mat3 to_world, vec3 wo) {
 }
 
 // a fitted lobe's prefiltered radiance: each lookup at ψ from n, away from the view, in the
-// plane of incidence; the two view cosines around wo's blended
+// plane of incidence; the two view cosines around wo's blended, each row's lookups turned by the
+// pixel's view angle less the row's (the lobe moves with the view)
 vec3 mixture_light(int k, mat3 to_world, vec3 wo) {
     float x = clamp(wo.z, 0.0, 1.0) * float(PREF_COSINES - 1);
     int i0 = min(int(x), PREF_COSINES - 2);
     float f = x - float(i0);
+    float theta = acos(clamp(wo.z, 0.0, 1.0));
     vec2 toward = length(wo.xy) > 1e-7 ? normalize(wo.xy) : vec2(1.0, 0.0);
     vec3 light = vec3(0.0);
     for (int side = 0; side < 2; side++) {
         float share = side == 0 ? 1.0 - f : f;
         int row = k * PREF_COSINES + i0 + side;
+        float turn = theta - acos(max(float(i0 + side) / float(PREF_COSINES - 1), PREF_MIN_COS));
         for (int j = 0; j < PREF_LOOKUPS; j++) {
             vec3 e = texelFetch(u_pref_mixture, ivec2(j, row), 0).rgb;
             if (e.z <= 0.0) continue;
-            vec3 d = vec3(-sin(e.x) * toward, cos(e.x));
+            float psi = e.x + turn;
+            vec3 d = vec3(-sin(psi) * toward, cos(psi));
             light += share * e.z * texture(u_pref_stack, vec3(env_uv(to_world * d, u_pref_rotation), e.y)).rgb;
         }
     }

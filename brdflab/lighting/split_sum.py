@@ -29,7 +29,7 @@ import numpy as np
 
 from brdflab.lighting.envmap import EnvironmentMap, direction_to_uv
 from brdflab.lighting.prefilter import PrefilteredStack, layer_blend, prefiltered_stack
-from brdflab.lighting.view_mixture import COSINES, mixture_directions, view_mixture
+from brdflab.lighting.view_mixture import COSINES, ROW_ANGLES, mixture_directions, view_mixture
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 
 ALBEDO_SIZE = 32  # cos θo = 0, 1/31, …, 1
@@ -172,8 +172,10 @@ def sample_latlong(layer: np.ndarray, d: np.ndarray) -> np.ndarray:
 def mixture_light(mixture: np.ndarray, stack, n: np.ndarray, t: np.ndarray, b: np.ndarray,
                   wo: np.ndarray) -> np.ndarray:
     """A fitted lobe's prefiltered radiance (pixels, 3): its lookups at the two view cosines
-    around each pixel's, blended linearly (the shader's loop)."""
+    around each pixel's, blended linearly, each turned by the pixel's view angle less the row's
+    (the lobe moves with the view between rows; the shader's loop)."""
     x = np.clip(wo[:, 2], 0.0, 1.0) * (COSINES - 1)
+    theta = np.arccos(np.clip(wo[:, 2], 0.0, 1.0))
     i0 = np.minimum(x.astype(int), COSINES - 2)
     tangent = np.hypot(wo[:, 0], wo[:, 1])[:, None]  # the view's projection on the surface (t at normal view), world
     toward = np.where(tangent > 1e-7, wo[:, :2] / np.maximum(tangent, 1e-300), np.array([1.0, 0.0]))
@@ -181,6 +183,7 @@ def mixture_light(mixture: np.ndarray, stack, n: np.ndarray, t: np.ndarray, b: n
     light = np.zeros((len(wo), 3))
     for row, share in ((i0, 1.0 - (x - i0)), (i0 + 1, x - i0)):
         psi, layer, weight = np.moveaxis(mixture[row], -1, 0)  # each (pixels, LOOKUPS)
+        psi = psi + (theta - ROW_ANGLES[row])[:, None]
         d = mixture_directions(psi, n[:, None], toward_view[:, None])
         for k in np.unique(layer[weight > 0.0]).astype(int):
             at = weight * (layer == k)

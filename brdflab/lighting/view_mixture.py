@@ -15,7 +15,9 @@ T^−WEIGHT_POWER (floored at FLOOR × the peak): a dim pixel is lit by the lobe
 kernel that reaches below the horizon lights it from where the lobe does not. The weights are
 normalised to sum to 1, so the energy stays the albedo table's. The shader (and the NumPy twin,
 `split_sum.prefiltered_pixels`) reads each lookup's layer at its direction and blends the two
-nearest cosines.
+nearest cosines, each lookup turned by the pixel's view angle less its row's: the lobe moves with
+the view between rows (blended in place, two rows 15° apart near the normal drew two highlights:
+Blinn–Phong n = 100 under forest, θo < 15°, 6.7 % where the split sum was 2.4 %).
 
 Only isotropic glossy lobes of roughness ≥ MIN_ROUGHNESS are fitted: a sharper lobe is close to
 its normal-view shape, and narrower than the fitting grid resolves.
@@ -52,6 +54,7 @@ def fibonacci_half_sphere(n: int = GRID_POINTS) -> np.ndarray:
 
 
 GRID = fibonacci_half_sphere()
+ROW_ANGLES = np.arccos(np.maximum(np.linspace(0.0, 1.0, COSINES), MIN_COS))  # θo each row is fitted at
 
 
 def in_plane(psi: np.ndarray) -> np.ndarray:
@@ -85,7 +88,7 @@ def atoms(kernel: str) -> tuple[np.ndarray, np.ndarray]:
 def lobe_targets(lobe) -> np.ndarray:
     """f(l, wo) max(0, l_z) in luminance at the grid points, (COSINES, grid), each row summing to 1
     (or 0 where the lobe is black at that view)."""
-    cos_o = np.maximum(np.linspace(0.0, 1.0, COSINES), MIN_COS)
+    cos_o = np.cos(ROW_ANGLES)
     wo = np.stack([np.sqrt(1.0 - cos_o**2), np.zeros(COSINES), cos_o], -1)
     wi = np.broadcast_to(GRID, (COSINES, *GRID.shape)).reshape(-1, 3)
     f = lobe.model.evaluate(wi, np.repeat(wo, len(GRID), axis=0), lobe.params)

@@ -22,7 +22,7 @@ from brdflab.render import gil_free
 from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.prefiltered import PrefilteredLighting
 from brdflab.lighting.split_sum import ALBEDO_PHIS, TAPS
-from brdflab.lighting.view_mixture import COSINES as MIXTURE_COSINES, LOOKUPS
+from brdflab.lighting.view_mixture import COSINES as MIXTURE_COSINES, LOOKUPS, MIN_COS as MIXTURE_MIN_COS
 from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 from brdflab.render.tabulated import TabulatedTextures
 from brdflab.lighting.env_sampling import environment_distribution
@@ -419,7 +419,8 @@ class ObjectRenderer:
                 material += shader_source("sh.glsl")
             if mode == "prefiltered":
                 defines += (f"#define PREF_TAPS {TAPS}\n#define PREF_PHIS {ALBEDO_PHIS}\n"
-                            f"#define PREF_COSINES {MIXTURE_COSINES}\n#define PREF_LOOKUPS {LOOKUPS}\n")
+                            f"#define PREF_COSINES {MIXTURE_COSINES}\n#define PREF_LOOKUPS {LOOKUPS}\n"
+                            f"#define PREF_MIN_COS {MIXTURE_MIN_COS!r}\n")
                 material += shader_source("prefiltered.glsl")
             self._programs[key] = self.ctx.program(
                 vertex_shader=GLSL_VERSION + defines + shader_source("object_vertex.glsl"),
