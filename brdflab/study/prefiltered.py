@@ -158,12 +158,12 @@ def draw(numbers: dict, out_dir: Path) -> list[str]:
     fig.subplots_adjust(left=0.6 / width * 2.2, right=1.0 - 1.1 / width, bottom=0.33, top=0.88, wspace=0.3)
     bar = fig.add_axes([1.0 - 0.95 / width, 0.33, 0.12 / width, 0.55])
     fig.colorbar(image, cax=bar, label="relative RMSE (%)")
-    caption = (f"Where it breaks (over 10 %): {breaking_bands(numbers)}. Prefiltered lighting prefilters every lobe "
-               "as it is at normal view (n = v = r), so the stretched, shifted and horizon-clipped highlights of "
-               "grazing views are lost and the error grows toward the rim. The map's bright texels (4× its mean "
-               "luminance, 32 to 256 of them: a sun, a window) are lit exactly, not prefiltered, so bright sources "
-               "no longer blow it up. Broad lobes are looked up "
-               "along Frostbite's dominant direction (pulled toward n). Lobes sharper than a texel of the "
+    caption = (f"Where it breaks (over 10 %): {breaking_bands(numbers)}. Rough lobes (α ≥ 0.1: n ≤ 198) are read "
+               "from the stack by up to 8 lookups fitted to their shape at each view (lighting/view_mixture.py), "
+               "so they stay close up to the rim; sharper ones are prefiltered as they are at normal view "
+               "(n = v = r), so the narrowed, shifted and horizon-clipped highlights of grazing views are lost "
+               "and the error grows toward the rim. The map's bright texels (4× its mean luminance, 32 to 256 of "
+               "them: a sun, a window) are lit exactly, not prefiltered. Lobes sharper than a texel of the "
                f"{numbers.get('reference_texels', [128, 64])[0]}-texel-wide map (n ≈ 3000) compare two "
                "discretisations of the map, not the method.")
     fig.text(0.02, 0.02, textwrap.fill(caption, int(width * 15)), fontsize=8, va="bottom")
