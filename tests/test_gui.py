@@ -102,6 +102,7 @@ def test_open_measured_fit_and_cancel(window, qtbot, tmp_path):
     assert [l.model.name for l in window.workspace.guess.lobes] == ["Lambertian", "CookTorrance"]
     window.editor.parameter_edited.emit(1, "m", 0.25)
     assert window.workspace.guess.lobes[1].params["m"] == 0.25
+    window.lobe_view.catch_up()  # the viewer takes a new layer when its step thread lets go of the context
     assert window.lobe_view.viewer._layers[1].source is window.workspace.guess
 
     # a fit that is stopped keeps the best so far

@@ -175,6 +175,7 @@ def test_a_new_initial_guess_redraws_only_what_shows_it(window, qtbot, tmp_path)
     window.fitting.lobes.setCurrentText("Lambertian,Ward")
     guess = window.workspace.guess
     assert guess.lobe_models() == ["Lambertian", "Ward"] and window.editor.material is guess
+    window.lobe_view.catch_up()  # the viewer takes a new layer when its step thread lets go of the context
     assert window.lobe_view.viewer._layers[1].source is guess
     assert window.object_view._progressive is image and not window.plots._redraw.isActive()
     assert not xml.isActive()
