@@ -46,15 +46,15 @@ def settle(w, timeout: float = 300.0) -> None:
     view = w.object_view
 
     def object_done() -> bool:
-        target = view._target_samples()
-        return (view._progressive is not None and view.samples_done >= target and view._flight is None
-                and (not view.comparing or (view._progressive_b is not None and view._progressive_b.samples >= target)))
+        return (view.image_complete and not view.busy_elsewhere()
+                and (not view.comparing or (view._progressive_b is not None and view._progressive_b.complete)))
 
     def lobes_done() -> bool:
-        return not (w._refine_job.busy or w._auto_level_job.busy or w.lobe_view._pending)
+        feed = w.lobe_feed
+        return not (feed._refine_job.busy or feed._auto_level_job.busy or w.lobe_view._pending)
 
     def plots_done() -> bool:
-        return not w.plots._job.busy and w.plots.status.text() == "" and not w._plot_timer.isActive()
+        return not w.plots._job.busy and w.plots.status.text() == "" and not w.plots._redraw.isActive()
 
     for _ in range(2):  # once more after a pause: a late answer may have restarted a view
         wait(lambda: not w.loading and w._thread is None, timeout, "the window to be idle")
@@ -62,7 +62,7 @@ def settle(w, timeout: float = 300.0) -> None:
         wait(lobes_done, timeout, "the lobe viewer to refine")
         wait(plots_done, timeout, "the plots")
         QTest.qWait(1000)
-    wait(lambda: view._frame_fence is None and w.lobe_view._frame_fence is None, timeout, "the frames")
+    wait(lambda: not (view.busy_elsewhere() or w.lobe_view.busy_elsewhere()), timeout, "the frames")
     QTest.qWait(500)
 
 
