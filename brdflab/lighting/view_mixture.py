@@ -7,10 +7,11 @@ maps a rough lobe was 5–12 % off per pixel under skies and suns (GGX, Beckmann
 docs/prefiltered.md), and up to 107 % in a studio whose soft boxes sit in a lobe's tail.
 
 Here, per lobe and at COSINES view cosines, the lobe's f(l, wo) max(0, l_z) is fitted, over
-directions l of a Fibonacci sphere (the half y ≥ 0: a isotropic lobe is symmetric about the
+directions l of a Fibonacci sphere (the half y ≥ 0: an isotropic lobe is symmetric about the
 plane of incidence), by a non-negative sum of at most LOOKUPS of the stack's own kernels —
 the lobe's kernel family at the layers' α, centred in the plane of incidence at angles ψ from
-n toward the mirror direction (Lawson–Hanson NNLS). The fit weighs each direction by
+n toward the mirror direction (`greedy_nnls`: non-negative least squares, one lookup added at a
+time). The fit weighs each direction by
 T^−WEIGHT_POWER (floored at FLOOR × the peak): a dim pixel is lit by the lobe's tail, and a
 kernel that reaches below the horizon lights it from where the lobe does not. The weights are
 normalised to sum to 1, so the energy stays the albedo table's. The shader (and the NumPy twin,
@@ -19,8 +20,10 @@ nearest cosines, each lookup turned by the pixel's view angle less its row's: th
 the view between rows (blended in place, two rows 15° apart near the normal drew two highlights:
 Blinn–Phong n = 100 under forest, θo < 15°, 6.7 % where the split sum was 2.4 %).
 
-Only isotropic glossy lobes of roughness ≥ MIN_ROUGHNESS are fitted: a sharper lobe is close to
-its normal-view shape, and narrower than the fitting grid resolves.
+Only isotropic lobes of a half-vector kernel (Beckmann, GGX), with no diffuse share and of
+roughness ≥ MIN_ROUGHNESS, are fitted (`fitted`): a sharper lobe is close to its normal-view
+shape and narrower than the fitting grid resolves; a Phong-kernel lobe (a wi-space lobe) keeps its
+shape at every view; anisotropic lobes keep their taps.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from functools import lru_cache
 import numpy as np
 
 from brdflab.fitting.nnls import nnls
+from brdflab.lighting.env_sampling import LUMINANCE
 from brdflab.lighting.prefilter import ALPHAS, KERNEL_FUNCTIONS, layer_of, phong_exponent
 
 COSINES = 32  # view cosines 0, 1/31, …, 1 (the last fitted with lookups along n only: its plane is any)
@@ -39,7 +43,6 @@ PSI_DEGREES = 2.5  # the candidates' spacing in ψ, −90° … 90°
 WEIGHT_POWER = 0.35  # chosen on the tuning maps only, against 0.25 and 0.5 (docs/prefiltered.md)
 FLOOR = 1e-3
 MIN_ROUGHNESS = 0.1  # below, the fit's grid (~4.5°) and the layers' spacing cost more at normal views than the fit gains (docs/prefiltered.md)
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 MIN_COS = 0.01  # the fit at cos θo = 0 is made at this cosine
 
 
