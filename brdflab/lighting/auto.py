@@ -145,12 +145,12 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
     from functools import cache
 
     from brdflab.lighting.auto_twins import fis_errors, mis_errors, view_pilot
-    from brdflab.lighting.split_sum import material_split
+    from brdflab.lighting.view_mixture import fits
 
     view = cache(lambda: view_pilot(source, proxy, env))
     levels = cache(lambda: [level.astype(float) for level in solid_angle_mips(env.data)])
     lights = len(bright_lights(reduced(env))[1])  # as the map's stack holds them
-    fitted = sum(split.mixture is not None for split in material_split(proxy))
+    fitted = sum(fits(lobe) for lobe in proxy.lobes)  # counted, not fitted: prefiltered may not be weighed
     for mode, setting in settings(lights, fitted):
         cost = frame_cost(mode, setting, lights, fitted)
         if mode == "prefiltered":

@@ -21,7 +21,7 @@ the view between rows (blended in place, two rows 15° apart near the normal dre
 Blinn–Phong n = 100 under forest, θo < 15°, 6.7 % where the split sum was 2.4 %).
 
 Only isotropic lobes of a half-vector kernel (Beckmann, GGX), with no diffuse share and of
-roughness ≥ MIN_ROUGHNESS, are fitted (`fitted`): a sharper lobe is close to its normal-view
+roughness ≥ MIN_ROUGHNESS, are fitted (`fits`): a sharper lobe is close to its normal-view
 shape and narrower than the fitting grid resolves; a Phong-kernel lobe (a wi-space lobe) keeps its
 shape at every view; anisotropic lobes keep their taps.
 """
@@ -108,8 +108,8 @@ def fit_view(target: np.ndarray, kernel: str, along_normal: bool) -> np.ndarray:
         return table
     columns, meta = atoms(kernel)
     weight = np.maximum(target, FLOOR * target.max()) ** -WEIGHT_POWER
-    # candidates centred where the lobe is, within a kernel's reach: where some atom overlaps it
-    candidates = np.flatnonzero((meta[:, 0] == 0.0) if along_normal else (target @ columns > 0.0))
+    # every candidate (a kernel that misses the lobe scores ≤ 0 in `greedy_nnls` and is never taken)
+    candidates = np.flatnonzero(meta[:, 0] == 0.0) if along_normal else np.arange(len(meta))
     a = columns[:, candidates] * weight[:, None]
     b = target * weight
     keep, w_keep = greedy_nnls(a, b, LOOKUPS)
@@ -143,19 +143,21 @@ def greedy_nnls(a: np.ndarray, b: np.ndarray, count: int) -> tuple[np.ndarray, n
     return np.array(chosen, int), w
 
 
-def fitted(rule) -> bool:
-    """Whether a lobe of this split-sum rule is drawn by a fitted mixture."""
+def fits(lobe) -> bool:
+    """Whether the lobe is drawn by fitted lookups (without fitting them: Render Auto's frame
+    cost counts them): isotropic, a half-vector kernel, no diffuse share, α ≥ MIN_ROUGHNESS."""
+    rule = lobe.model.split_sum(lobe.params)
     return (rule.kernel in ("beckmann", "ggx") and rule.kind != "diffuse" and rule.diffuse_share == 0.0
-            and max(rule.tilt) == 0.0 and rule.roughness >= MIN_ROUGHNESS)
+            and max(rule.tilt) == 0.0 and rule.roughness >= MIN_ROUGHNESS and lobe.model.is_isotropic(lobe.params))
 
 
 def view_mixture(lobe) -> np.ndarray | None:
     """(COSINES, LOOKUPS, 3) for an isotropic glossy lobe: per view cosine i / (COSINES − 1),
     each lookup's ψ (radians from n toward the mirror side), its layer in the stack (an index of
-    `PrefilteredStack.layers`) and its weight; None where the lobe is not fitted."""
-    rule = lobe.model.split_sum(lobe.params)
-    if not (fitted(rule) and lobe.model.is_isotropic(lobe.params)):
+    `PrefilteredStack.layers`) and its weight; None where the lobe is not fitted (`fits`)."""
+    if not fits(lobe):
         return None
+    rule = lobe.model.split_sum(lobe.params)
     targets = lobe_targets(lobe)
     table = np.stack([fit_view(t, rule.kernel, i == COSINES - 1) for i, t in enumerate(targets)])
     table[..., 1] = np.where(table[..., 2] > 0.0, table[..., 1] + layer_of(rule.kernel, 0), 0.0)
