@@ -13,8 +13,10 @@ from brdflab.lighting.auto_twins import (
     fis_errors,
     fis_pixels,
     fis_pixels_of,
+    in_pieces,
     mis_errors,
     mis_pixels,
+    side_by_side_pieces,
     view_pilot,
 )
 from brdflab.lighting.env_sampling import environment_distribution
@@ -171,3 +173,19 @@ def test_pilot_pixels_include_the_suns_highlight_and_weigh_the_view():
     flat = EnvironmentMap(np.ones((32, 64, 3), np.float32), "flat", None)
     flat_pixels = fis_pixels_of(flat)
     assert np.allclose(flat_pixels.weight, flat_pixels.weight[0])
+
+
+def test_twins_shaded_in_pieces_equal_the_whole():
+    """Runs of pixels (`in_pieces`, made two at a time) stack back into exactly the estimate of
+    every pixel at once: each pixel is its own estimate with its own shift."""
+    env = sun_map()
+    mat = material(Lobe.create("CookTorranceGGX", [0.5] * 3, m=0.2, F0=0.9))
+    view = frames(SIZE)
+    pixels = len(view[0])
+    shifts = pixel_shifts(np.arange(pixels), np.full(pixels, 3))
+    dist = environment_distribution(env)
+    whole = mis_pixels(mat, mat, env, dist, view, 256, shifts)
+    pieces = in_pieces(lambda part, s: mis_pixels(mat, mat, env, dist, part, 256, s), view, 256, shifts)
+    assert len(pieces) > 2
+    (stacked,) = side_by_side_pieces([pieces])
+    np.testing.assert_array_equal(stacked, whole)
