@@ -31,6 +31,15 @@ def to_half_diff(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return theta_h, phi_h, theta_d, phi_d
 
 
+def half_and_difference_angles(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(θh, θd) of direction pairs without φh and φd (what an isotropic slice is indexed by):
+    cos θh = h_z and cos θd = wi·h, as `to_half_diff` gives them after its rotations."""
+    h = normalize(wi + wo)
+    theta_h = np.arccos(np.clip(h[..., 2], -1.0, 1.0))
+    theta_d = np.arccos(np.clip(np.einsum("...i,...i->...", wi, h), -1.0, 1.0))
+    return theta_h, theta_d
+
+
 def from_half_diff(theta_h, phi_h, theta_d, phi_d) -> tuple[np.ndarray, np.ndarray]:
     """Direction pairs (wi, wo) from half/difference angles (the inverse of to_half_diff)."""
     d = spherical_to_cartesian(theta_d, phi_d)

@@ -14,7 +14,7 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.io.bounded import MAX_DATA_BYTES, BoundedFile, read_bounded
-from brdflab.geometry.halfdiff import N_PD, N_TD, N_TH, continuous_bins, from_half_diff, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin, to_half_diff
+from brdflab.geometry.halfdiff import N_PD, N_TD, N_TH, continuous_bins, from_half_diff, half_and_difference_angles, phi_d_of_bin, theta_d_of_bin, theta_h_of_bin, to_half_diff
 from brdflab.geometry.vec import spherical_to_cartesian
 
 MERL_SCALE = np.array([1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0])
@@ -78,10 +78,13 @@ class MeasuredTable:
         """Values at direction pairs (N, C); 0 below the surface or where nothing was measured."""
         wi = np.asarray(wi, float)
         wo = np.asarray(wo, float)
-        th, _, td, pd = to_half_diff(wi, wo)
-        x, y, z = continuous_bins(th, td, pd)
-        if self.phi_d_samples == 1:
-            z = np.zeros_like(z)
+        if self.phi_d_samples == 1:  # a slice needs no φd: θh and θd from the half vector alone
+            th, td = half_and_difference_angles(wi, wo)
+            x, y, _ = continuous_bins(th, td, 0.0)
+            z = np.zeros_like(x)
+        else:
+            th, _, td, pd = to_half_diff(wi, wo)
+            x, y, z = continuous_bins(th, td, pd)
         out = self._trilinear(x, y, z) if self.interpolation == "trilinear" else self._nearest(x, y, z)
         above = (wi[..., 2] > 0) & (wo[..., 2] > 0)
         return np.where(above[..., None], out, 0.0)
@@ -94,6 +97,19 @@ class MeasuredTable:
         vals = self.values[:, ix, iy, iz]
         ok = self.valid[ix, iy, iz]
         return np.where(ok, vals, 0.0).T.astype(float)
+
+    def _corner_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """The table as rows of bins (bins, C), unmeasured bins zeroed, and the validity as
+        float32 (bins,): a corner's channels are one row, and validity needs no second product
+        per corner. Made on the first lookup and kept while `values` and `valid` are the same
+        arrays (they are not edited in place after a lookup)."""
+        key = (id(self.values), id(self.valid))
+        cached = self.__dict__.get("_corners")
+        if cached is None or cached[0] != key:
+            rows = np.ascontiguousarray((self.values.reshape(self.n_channels, -1) * self.valid.reshape(-1)).T)
+            cached = (key, rows, self.valid.reshape(-1).astype(np.float32))
+            self.__dict__["_corners"] = cached
+        return cached[1], cached[2]
 
     def _trilinear(self, x, y, z) -> np.ndarray:
         x = np.clip(x, 0.0, N_TH - 1.0)
@@ -110,18 +126,16 @@ class MeasuredTable:
             fz = z - np.floor(z)
         acc = np.zeros(x.shape + (self.n_channels,))
         wsum = np.zeros(x.shape)
-        # the table as (channels, bins) and its validity as (bins,): `np.take` of a corner's flat
-        # index is several times faster than indexing the 4-D table with three index arrays
-        values, valid = self.values.reshape(self.n_channels, -1), self.valid.reshape(-1)
+        table, valid = self._corner_table()
         for dx, wx in ((0, 1 - fx), (1, fx)):
             for dy, wy in ((0, 1 - fy), (1, fy)):
                 for dz, wz in ((0, 1 - fz), (1, fz)):
                     if npd == 1 and dz == 1:
                         continue
                     flat = ((x0 + dx) * N_TD + (y0 + dy)) * npd + (z0 + dz) % npd
-                    w = wx * wy * wz * np.take(valid, flat)
-                    acc += w[..., None] * np.moveaxis(np.take(values, flat, axis=1), 0, -1)
-                    wsum += w
+                    w = wx * wy * wz
+                    acc += w[..., None] * np.take(table, flat, axis=0)
+                    wsum += w * np.take(valid, flat)
         return np.where(wsum[..., None] > 1e-12, acc / np.maximum(wsum, 1e-12)[..., None], 0.0)
 
     # --- sample sets ------------------------------------------------------------------
