@@ -73,6 +73,7 @@ class TabulatedSampler:
         self._cdf = np.zeros((tables, N_THETA * N_PHI))  # rising to 1 (a table with no mass is uniform)
         self._density = np.zeros((tables, N_THETA * N_PHI))  # mass / solid angle: the density of h
         self._built = np.zeros(tables, bool)
+        self._offsets: np.ndarray | None = None  # `_offset_cdf`, made again after a build
 
     @property
     def cdf(self) -> np.ndarray:
@@ -117,6 +118,16 @@ class TabulatedSampler:
         self._cdf[todo] = cdf
         self._density[todo] = mass / solid.reshape(1, -1)
         self._built[todo] = True
+        self._offsets = None
+
+    def _offset_cdf(self) -> np.ndarray:
+        """Every table's CDF, table k offset by k, end to end: one sorted array in which a draw
+        u from table k is found by searching u + k (a table not built yet is all k, which keeps
+        it sorted). Made once per build instead of gathering the tables drawn from at every
+        draw (a measured slice's 32,768 draws: 8.9 → 7.6 ms, the same directions)."""
+        if self._offsets is None:
+            self._offsets = (self._cdf + np.arange(len(self._cdf))[:, None]).ravel()
+        return self._offsets
 
     # --- the views around wo, with their weights
     def _views(self, wo: np.ndarray):
@@ -162,13 +173,10 @@ class TabulatedSampler:
             u[:, 0] = np.where(take, (pick - below) / np.where(weight > 0, weight, 1.0), u[:, 0])
             below = below + weight
         u = np.clip(u, 0.0, np.nextafter(1.0, 0.0))
-        rows, row_of = np.unique(table, return_inverse=True)  # the (built) tables drawn from
-        cdf = self._cdf[rows]
-        cells = cdf.shape[1]
-        flat = (cdf + np.arange(len(rows))[:, None]).ravel()  # one search: each row offset by its index
-        cell = np.minimum(np.searchsorted(flat, u[:, 0] + row_of, side="right") - row_of * cells, cells - 1)
-        lo = np.where(cell > 0, cdf[row_of, np.maximum(cell - 1, 0)], 0.0)
-        hi = cdf[row_of, cell]
+        cells = self._cdf.shape[1]
+        cell = np.minimum(np.searchsorted(self._offset_cdf(), u[:, 0] + table, side="right") - table * cells, cells - 1)
+        lo = np.where(cell > 0, self._cdf[table, np.maximum(cell - 1, 0)], 0.0)
+        hi = self._cdf[table, cell]
         r = np.clip((u[:, 0] - lo) / np.where(hi > lo, hi - lo, 1.0), 0.0, 1.0)
         it, ip = np.divmod(cell, N_PHI)
         t_edges = theta_edges()
@@ -179,7 +187,8 @@ class TabulatedSampler:
         h = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], -1)
         h = rotate_about_z(h, rotation if self.isotropic else np.zeros(n))
         wi = reflect(wo, h)
-        wi = np.where(cosine[:, None], cosine_hemisphere(np.stack([first, u[:, 1]], -1)), wi)
+        if cosine.any():
+            wi[cosine] = cosine_hemisphere(np.stack([first[cosine], u[cosine, 1]], -1))
         return wi.reshape(shape + (3,))
 
     def pdf(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
