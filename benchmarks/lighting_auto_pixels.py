@@ -10,8 +10,11 @@ functions: the view's RMS error over its RMS (what Auto judged until now) and th
 pixel's relative error in luminance, a pixel darker than 1 % of the view's mean counted
 against that 1 % (what a user sees). Materials: the issue's five (Lambertian, GGX m = 0.1 and
 0.3, Ward 0.1 × 0.3, a measured MERL slice when the shared data is there); maps: the fifteen of
-`lighting.synthetic_maps`, the held-out ones marked. Run it against another tree
-(`PYTHONPATH=…`) in the same session to compare before and after.
+`lighting.synthetic_maps`, the held-out ones marked. The time to choose is taken as
+`brdflab render --mode auto` and the window call `choose_lighting`: after the renderer has taken
+the source, with the renderer's proxy lobes (a measured source's proxy is fitted once, when the
+renderer or the window opens it; that fit is timed apart as `proxy_s`, a new source object per
+map). Run it against another tree (`PYTHONPATH=…`) in the same session to compare before and after.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from brdflab.lighting.synthetic_maps import catalogue
 from brdflab.material.analytic import AnalyticMaterial, Lobe
 from brdflab.render.context import create_context
 from brdflab.render.object_view import ObjectRenderer, RenderSettings
+from brdflab.sources.proxy import proxy_lobes
 from brdflab.study.framework import measured_slice
 from brdflab.study.lighting import build_sh_table, quadrature_reference
 
@@ -76,9 +80,12 @@ def main() -> None:
         for name, material in materials().items():
             prefilter._CACHE.clear()
             t0 = time.perf_counter()
-            choice = choose_lighting(material, env, TOLERANCE)
-            seconds = time.perf_counter() - t0
+            proxy_lobes(material)  # what the renderer's set_source fits, once per source object
+            proxy_s = time.perf_counter() - t0
             renderer.set_source(material)
+            t0 = time.perf_counter()
+            choice = choose_lighting(material, env, TOLERANCE, proxy=renderer.material)
+            seconds = time.perf_counter() - t0
             if choice.mode == "sh":
                 build_sh_table(material, choice.setting)
                 renderer.set_sh_order(choice.setting)
@@ -89,7 +96,7 @@ def main() -> None:
             rows.append({"map": spec.name, "class": spec.kind, "held_out": spec.held_out, "material": name,
                          "choice": f"{choice.mode} {choice.setting or ''}".strip(),
                          "predicted": choice.predicted_error, "rms": rms, "per_pixel": per_pixel,
-                         "reference_floor": floor, "choose_s": seconds, "weighed": len(choice.candidates)})
+                         "reference_floor": floor, "choose_s": seconds, "proxy_s": proxy_s, "weighed": len(choice.candidates)})
             print(f"{spec.name:<22}{'*' if spec.held_out else ' '} {name:<24} {rows[-1]['choice']:<12} "
                   f"predicted {100 * choice.predicted_error:5.2f} %  rms {100 * rms:5.2f} %  "
                   f"per pixel {100 * per_pixel:6.2f} %  choose {seconds:4.2f} s", flush=True)
