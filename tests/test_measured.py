@@ -68,6 +68,20 @@ def test_reciprocity_fold_and_isotropy(merl_file, rng):
     np.testing.assert_allclose(table.evaluate(wi @ rot.T, wo @ rot.T), table.evaluate(wi, wo), rtol=1e-5)
 
 
+def test_a_slice_reads_as_its_full_table_and_new_arrays_are_read_anew(rng):
+    """A slice's lookup (θh and θd from the half vector, no φd) equals the same slice repeated
+    along φd and read through the full half/difference rotations; a table given new value or
+    validity arrays after a lookup is read from them, not from the lookup's cache."""
+    table = tabulate(GLOSSY, phi_d_samples=1)
+    wi, wo = random_upper(rng, 2000), random_upper(rng, 2000)
+    np.testing.assert_allclose(table.evaluate(wi, wo), table.to_full().evaluate(wi, wo), rtol=1e-9, atol=1e-12)
+    before = table.evaluate(wi, wo)
+    table.values = table.values * 2.0
+    np.testing.assert_allclose(table.evaluate(wi, wo), 2.0 * before, rtol=1e-6)
+    table.valid = np.zeros_like(table.valid)
+    assert not table.evaluate(wi, wo).any()
+
+
 def test_unmeasured_samples_are_masked(tmp_path):
     table = tabulate(GLOSSY)
     table.valid[:, :, :90] = False

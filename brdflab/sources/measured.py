@@ -103,13 +103,18 @@ class MeasuredTable:
         float32 (bins,): a corner's channels are one row, and validity needs no second product
         per corner. Made on the first lookup and kept while `values` and `valid` are the same
         arrays (they are not edited in place after a lookup)."""
-        key = (id(self.values), id(self.valid))
         cached = self.__dict__.get("_corners")
-        if cached is None or cached[0] != key:
+        if cached is None or cached[0] is not self.values or cached[1] is not self.valid:
             rows = np.ascontiguousarray((self.values.reshape(self.n_channels, -1) * self.valid.reshape(-1)).T)
-            cached = (key, rows, self.valid.reshape(-1).astype(np.float32))
+            cached = (self.values, self.valid, rows, self.valid.reshape(-1).astype(np.float32))
             self.__dict__["_corners"] = cached
-        return cached[1], cached[2]
+        return cached[2], cached[3]
+
+    def __getstate__(self) -> dict:
+        """What pickling carries (to a worker process): the table without its lookup cache."""
+        state = dict(self.__dict__)
+        state.pop("_corners", None)
+        return state
 
     def _trilinear(self, x, y, z) -> np.ndarray:
         x = np.clip(x, 0.0, N_TH - 1.0)
