@@ -20,11 +20,9 @@ A second, independent route for the method: the reference sphere under the same 
 
 from __future__ import annotations
 
-import argparse
-import json
-from pathlib import Path
-
 import numpy as np
+
+from json_output import measure_and_write
 
 from brdflab.io.mesh import default_mesh
 from brdflab.io.resources import data_dir
@@ -103,14 +101,5 @@ def measure() -> dict:
             "truth_own_error": truth_own, "scene": scene, "sphere_vs_quadrature": sphere}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json")
-    args = ap.parse_args()
-    result = measure()
-    if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=1))
-
-
 if __name__ == "__main__":
-    main()
+    measure_and_write(measure, __doc__)

@@ -33,11 +33,10 @@ choices, made on the table as a whole.
 
 from __future__ import annotations
 
-import argparse
-import json
-from pathlib import Path
-
 import numpy as np
+
+from json_output import measure_and_write
+from lighting_auto_pixels import materials  # the five: Lambertian, GGX m = 0.1 and 0.3, Ward 0.1 × 0.3, a MERL slice
 
 from brdflab.lighting import auto_twins as twins
 from brdflab.lighting.env_sampling import LUMINANCE, environment_distribution
@@ -48,27 +47,11 @@ from brdflab.lighting.sampling_sets import mis_sample_set, pixel_shifts
 from brdflab.lighting.split_sum import albedo_at, lookup_direction, material_split, mixture_directions, sample_latlong
 from brdflab.lighting.synthetic_maps import catalogue
 from brdflab.lighting.view_mixture import COSINES, ROW_ANGLES
-from brdflab.material.analytic import AnalyticMaterial, Lobe
+from brdflab.material.analytic import AnalyticMaterial
 from brdflab.sources.proxy import proxy_lobes
-from brdflab.study.framework import measured_slice
 
 SIZE, SAMPLES, MAP_SIZE, DRAWS = 32, 64, (128, 64), 2
 VARIANTS = {"control": (True, True), "no lights": (True, False), "every lobe": (False, True)}  # (fitted lobes only, lights)
-
-
-def lobe(model: str, **params: float) -> AnalyticMaterial:
-    return AnalyticMaterial(model, "Linear", 3, [Lobe.create(model, [0.5] * 3, **params)])
-
-
-def materials() -> dict:
-    out = {"Lambertian": lobe("Lambertian"), "GGX m=0.3": lobe("CookTorranceGGX", m=0.3, F0=1.0),
-           "GGX m=0.1": lobe("CookTorranceGGX", m=0.1, F0=1.0), "Ward 0.1x0.3": lobe("Ward", ax=0.1, ay=0.3)}
-    path, _ = measured_slice()
-    if path is not None:
-        from brdflab.sources.measured import read_slice
-
-        out[path.stem] = read_slice(path)
-    return out
 
 
 def layer_kernel(index: int):
@@ -213,14 +196,5 @@ def measure() -> dict:
     return {"size": SIZE, "samples": SAMPLES, "map_size": MAP_SIZE, "draws": DRAWS, "rows": rows}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json")
-    args = ap.parse_args()
-    result = measure()
-    if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=1))
-
-
 if __name__ == "__main__":
-    main()
+    measure_and_write(measure, __doc__)

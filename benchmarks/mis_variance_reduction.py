@@ -30,11 +30,9 @@ held-out third stays for the check of whatever is built from this.
 
 from __future__ import annotations
 
-import argparse
-import json
-from pathlib import Path
-
 import numpy as np
+
+from json_output import measure_and_write
 
 from brdflab.geometry.sampling import ggx_d, half_vector_pdf, reflect
 from brdflab.lighting import auto_twins as twins
@@ -252,14 +250,5 @@ def measure() -> dict:
     return {"size": SIZE, "samples": SAMPLES, "map_size": MAP_SIZE, "rows": rows}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json")
-    args = ap.parse_args()
-    result = measure()
-    if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=1))
-
-
 if __name__ == "__main__":
-    main()
+    measure_and_write(measure, __doc__)
