@@ -22,7 +22,9 @@ kernel and is left out of g and P.
 
 Columns: `MIS 64` as the renderer draws it today; `control` with g from the lobes the prefiltered
 mode fits at every view (`view_mixture.fits`) and diffuse shares, plus the lights; `no lights`
-the same without the lights' part; `every lobe` with the other lobes' lookups (taps) in g too.
+the same without the lights' part; `every lobe` with the other lobes' lookups (taps) in g too;
+`control × ½` the control at half its weight, ½ P + MIS₆₄[f·cos·L − ½ g] (unbiased for any fixed
+weight; made from the same samples as `control`).
 Scored as the lab scores lighting: the reference view at 32², maps at 128 × 64, the RMS of each
 pixel's relative error in luminance against the subdivided texel quadrature
 (`refined_environment_image`), two independent draws (RMS of both), and the mean of the two
@@ -177,7 +179,7 @@ def measure() -> dict:
         env = spec.build(*MAP_SIZE)
         for name, source in materials().items():
             truth = lum(refined_environment_image(source, env, SIZE, SIZE)[view.inside])
-            errors = {key: [] for key in ("MIS 64", *VARIANTS)}
+            errors = {key: [] for key in ("MIS 64", *VARIANTS, "control × ½")}
             means = {key: [] for key in errors}
             for draw in range(DRAWS):
                 shifts = pixel_shifts(np.arange(pixels), np.full(pixels, draw))
@@ -185,6 +187,10 @@ def measure() -> dict:
                     value, plain = estimates(source, env, frames, shifts, fitted_only, with_lights)
                     errors[key].append(weighted_pixel_error(lum(value), truth, share))
                     means[key].append(lum(value))
+                    if key == "control":  # ½ P + MIS[f·cos·L − ½ g]: the same samples, half the control
+                        half = 0.5 * (value + plain)
+                        errors["control × ½"].append(weighted_pixel_error(lum(half), truth, share))
+                        means["control × ½"].append(lum(half))
                 errors["MIS 64"].append(weighted_pixel_error(lum(plain), truth, share))
                 means["MIS 64"].append(lum(plain))
             row = {"map": spec.name, "class": spec.kind, "held_out": spec.held_out, "material": name,
