@@ -235,6 +235,29 @@ def test_the_generic_sampler_is_exact_for_its_own_density():
     assert chi2.sf(stat, keep.sum() - 1) > 1e-4, stat
 
 
+def test_a_sampler_whose_tables_are_built_as_views_come_draws_as_one_built_at_once():
+    """The tabulated sampler searches one array of all its tables' CDFs: built view by view as
+    draws need them (from two threads, as Auto's twins draw), it must draw exactly the directions
+    of a sampler whose tables were all built first."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from brdflab.material.analytic import Lobe
+    from brdflab.models.files.sampler import TabulatedSampler
+
+    lobe = Lobe.create("CookTorranceGGX", [1.0], m=0.2, F0=0.9)
+    full = TabulatedSampler(lobe.model, lobe.params)
+    full.ensure_all()
+    lazy = TabulatedSampler(lobe.model, lobe.params)
+    rng = np.random.default_rng(5)
+    views = [np.array([math.sin(t), 0.0, math.cos(t)]) for t in np.radians([5.0, 40.0, 63.0, 80.0, 20.0, 86.0])]
+    points = [rng.random((4000, 2)) for _ in views]
+    with ThreadPoolExecutor(2) as pool:
+        drawn = list(pool.map(lambda k: lazy.sample(views[k], points[k]), range(len(views))))
+    for wo, u, wi in zip(views, points, drawn):
+        np.testing.assert_array_equal(wi, full.sample(wo, u))
+    assert not lazy._built.all()  # the lazy sampler built only the tables around those views
+
+
 def test_the_readme_s_ten_line_model_works_as_written(tmp_path):
     """The README's example `.brdf` (Minnaert's lobe) loads, renders its formula, and fits."""
     from brdflab.io.resources import checkout_root
