@@ -122,7 +122,7 @@ def lobe_split(lobe: Lobe) -> LobeSplit:
         return LobeSplit(lobe_albedo_table(lobe), (0, 0, 0.0), (0.0, 0.0, 1.0), 1.0)
     return LobeSplit(lobe_albedo_table(lobe), layer_blend(rule.kernel, rule.roughness), rule.axis,
                      float(rule.diffuse_share), dominant_weight(rule.roughness), tilt_taps(rule.tilt),
-                     view_mixture(lobe))
+                     view_mixture(lobe, rule))
 
 
 def lookup_direction(split: LobeSplit, tap: tuple[float, float, float], wo: np.ndarray) -> np.ndarray:
@@ -169,27 +169,39 @@ def sample_latlong(layer: np.ndarray, d: np.ndarray) -> np.ndarray:
     return top * (1 - fy) + bottom * fy
 
 
-def mixture_light(mixture: np.ndarray, stack, n: np.ndarray, t: np.ndarray, b: np.ndarray,
-                  wo: np.ndarray) -> np.ndarray:
-    """A fitted lobe's prefiltered radiance (pixels, 3): its lookups at the two view cosines
-    around each pixel's, blended linearly, each turned by the pixel's view angle less the row's
-    (the lobe moves with the view between rows; the shader's loop)."""
+def mixture_lookups(mixture: np.ndarray, n: np.ndarray, t: np.ndarray, b: np.ndarray,
+                    wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A fitted lobe's lookups at each pixel: stack layers (pixels, 2·LOOKUPS), world directions
+    (pixels, 2·LOOKUPS, 3) and weights: the lookups of the two view cosines around each pixel's,
+    each weighted by its row's share of the linear blend and turned by the pixel's view angle
+    less the row's (the lobe moves with the view between rows; the shader's loop)."""
     x = np.clip(wo[:, 2], 0.0, 1.0) * (COSINES - 1)
     theta = np.arccos(np.clip(wo[:, 2], 0.0, 1.0))
     i0 = np.minimum(x.astype(int), COSINES - 2)
     tangent = np.hypot(wo[:, 0], wo[:, 1])[:, None]  # the view's projection on the surface (t at normal view), world
     toward = np.where(tangent > 1e-7, wo[:, :2] / np.maximum(tangent, 1e-300), np.array([1.0, 0.0]))
     toward_view = toward[:, :1] * t + toward[:, 1:2] * b
-    light = np.zeros((len(wo), 3))
+    layers, directions, weights = [], [], []
     for row, share in ((i0, 1.0 - (x - i0)), (i0 + 1, x - i0)):
         psi, layer, weight = np.moveaxis(mixture[row], -1, 0)  # each (pixels, LOOKUPS)
         psi = psi + (theta - ROW_ANGLES[row])[:, None]
-        d = mixture_directions(psi, n[:, None], toward_view[:, None])
-        for k in np.unique(layer[weight > 0.0]).astype(int):
-            at = weight * (layer == k)
-            pixels, lookups = np.nonzero(at)
-            np.add.at(light, pixels, (share[pixels] * at[pixels, lookups])[:, None]  # a pixel may read a layer twice
-                      * sample_latlong(stack.layers[k], d[pixels, lookups]))
+        directions.append(mixture_directions(psi, n[:, None], toward_view[:, None]))
+        layers.append(layer.astype(int))
+        weights.append(share[:, None] * weight)
+    return np.concatenate(layers, 1), np.concatenate(directions, 1), np.concatenate(weights, 1)
+
+
+def mixture_light(mixture: np.ndarray, stack, n: np.ndarray, t: np.ndarray, b: np.ndarray,
+                  wo: np.ndarray) -> np.ndarray:
+    """A fitted lobe's prefiltered radiance (pixels, 3): its lookups (`mixture_lookups`) read
+    from the stack."""
+    layer, d, weight = mixture_lookups(mixture, n, t, b, wo)
+    light = np.zeros((len(wo), 3))
+    for k in np.unique(layer[weight > 0.0]):
+        at = weight * (layer == k)
+        pixels, lookups = np.nonzero(at)
+        np.add.at(light, pixels, at[pixels, lookups][:, None]  # a pixel may read a layer more than once
+                  * sample_latlong(stack.layers[k], d[pixels, lookups]))
     return light
 
 

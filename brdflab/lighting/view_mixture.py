@@ -143,21 +143,24 @@ def greedy_nnls(a: np.ndarray, b: np.ndarray, count: int) -> tuple[np.ndarray, n
     return np.array(chosen, int), w
 
 
-def fits(lobe) -> bool:
+def fits(lobe, rule=None) -> bool:
     """Whether the lobe is drawn by fitted lookups (without fitting them: Render Auto's frame
-    cost counts them): isotropic, a half-vector kernel, no diffuse share, α ≥ MIN_ROUGHNESS."""
-    rule = lobe.model.split_sum(lobe.params)
+    cost counts them): isotropic, a half-vector kernel, no diffuse share, α ≥ MIN_ROUGHNESS.
+    `rule`: the lobe's split-sum rule where the caller has it (a file model's measures its
+    roughness on the lobe's values)."""
+    rule = lobe.model.split_sum(lobe.params) if rule is None else rule
     return (rule.kernel in ("beckmann", "ggx") and rule.kind != "diffuse" and rule.diffuse_share == 0.0
             and max(rule.tilt) == 0.0 and rule.roughness >= MIN_ROUGHNESS and lobe.model.is_isotropic(lobe.params))
 
 
-def view_mixture(lobe) -> np.ndarray | None:
+def view_mixture(lobe, rule=None) -> np.ndarray | None:
     """(COSINES, LOOKUPS, 3) for an isotropic glossy lobe: per view cosine i / (COSINES − 1),
     each lookup's ψ (radians from n toward the mirror side), its layer in the stack (an index of
-    `PrefilteredStack.layers`) and its weight; None where the lobe is not fitted (`fits`)."""
-    if not fits(lobe):
+    `PrefilteredStack.layers`) and its weight; None where the lobe is not fitted (`fits`).
+    `rule`: the lobe's split-sum rule where the caller has it."""
+    rule = lobe.model.split_sum(lobe.params) if rule is None else rule
+    if not fits(lobe, rule):
         return None
-    rule = lobe.model.split_sum(lobe.params)
     targets = lobe_targets(lobe)
     table = np.stack([fit_view(t, rule.kernel, i == COSINES - 1) for i, t in enumerate(targets)])
     table[..., 1] = np.where(table[..., 2] > 0.0, table[..., 1] + layer_of(rule.kernel, 0), 0.0)
