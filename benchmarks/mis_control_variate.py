@@ -46,9 +46,8 @@ from brdflab.lighting.envmap import texel_of
 from brdflab.lighting.prefilter import ALPHAS, KERNELS, bright_lights, cosine_kernel, prefiltered_stack, reduced, specular_kernel
 from brdflab.lighting.reference_view import refined_environment_image, sphere_view, weighted_pixel_error
 from brdflab.lighting.sampling_sets import mis_sample_set, pixel_shifts
-from brdflab.lighting.split_sum import albedo_at, lookup_direction, material_split, mixture_directions, sample_latlong
+from brdflab.lighting.split_sum import albedo_at, lookup_direction, material_split, mixture_lookups, sample_latlong
 from brdflab.lighting.synthetic_maps import catalogue
-from brdflab.lighting.view_mixture import COSINES, ROW_ANGLES
 from brdflab.material.analytic import AnalyticMaterial
 from brdflab.sources.proxy import proxy_lobes
 
@@ -86,16 +85,8 @@ def lookups(material: AnalyticMaterial, frames, fitted_only: bool):
         if split.diffuse_share > 0.0:
             out.append((np.zeros(pixels, int), n, albedo * split.diffuse_share / np.pi))
         if split.mixture is not None:
-            x = np.clip(wo[:, 2], 0.0, 1.0) * (COSINES - 1)
-            theta = np.arccos(np.clip(wo[:, 2], 0.0, 1.0))
-            i0 = np.minimum(x.astype(int), COSINES - 2)
-            tangent = np.hypot(wo[:, 0], wo[:, 1])[:, None]
-            toward = np.where(tangent > 1e-7, wo[:, :2] / np.maximum(tangent, 1e-300), np.array([1.0, 0.0]))
-            toward_view = toward[:, :1] * t + toward[:, 1:2] * b
-            for row, share in ((i0, 1.0 - (x - i0)), (i0 + 1, x - i0)):
-                psi, layer, weight = np.moveaxis(split.mixture[row], -1, 0)
-                d = mixture_directions(psi + (theta - ROW_ANGLES[row])[:, None], n[:, None], toward_view[:, None])
-                out += [(layer[:, m].astype(int), d[:, m], albedo * (share * weight[:, m])[:, None]) for m in range(psi.shape[1])]
+            layer, d, weight = mixture_lookups(split.mixture, n, t, b, wo)
+            out += [(layer[:, m], d[:, m], albedo * weight[:, m, None]) for m in range(layer.shape[1])]
         elif split.diffuse_share < 1.0 and not fitted_only:
             lo, hi, w = split.layers
             for tap in split.taps:
