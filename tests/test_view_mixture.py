@@ -45,7 +45,7 @@ def test_which_lobes_are_fitted(model, params, fitted):
 
 
 # one tuning and one held-out map of each class (studio-two-boxes, a tuning map, is the one miss:
-# 6.8–9.6 % below 60°, a soft box crossing the horizon of the pixels in a band; docs/prefiltered.md)
+# 6.8–9.6 % below 60°, soft boxes seen near the pixels' horizon; docs/prefiltered.md)
 MAPS = ("overcast", "hazy-afternoon-sky", "sun-low-small", "sunrise-tiny", "room-one-window",
         "room-window-and-lamp", "city-night", "moonlit-night", "studio-strip", "studio-rim-light")
 
