@@ -545,6 +545,20 @@ def _sh_table_used(renderer) -> tuple[dict, str]:
             f"SH table: {setting.text}")
 
 
+def _check_map_options(args: argparse.Namespace) -> None:
+    """The map's options in point mode are a mistake, not a no-op: the point light ignores the map,
+    so a user who typed --env and forgot --mode would get an image lit by something else."""
+    if args.mode != "point":
+        return
+    given = [name for name, value, default in (("--env", args.env, None), ("--env-back", args.env_back, None),
+                                               ("--env-layout", args.env_layout, "auto"),
+                                               ("--env-rotation", args.env_rotation, 0.0))
+             if value != default]
+    if given:
+        raise BRDFLabError(f"{', '.join(given)}: only the map modes (mis, prefiltered, sh, fis, auto) use a map; "
+                           "--mode point lights with --light alone: add --mode MODE or drop the map")
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from brdflab.lighting.envmap import load_environment, write_exr
     from brdflab.io.mesh import default_mesh, load_mesh
@@ -559,6 +573,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     if out.suffix.lower() not in (".exr", ".png"):
         raise BRDFLabError("the output must be .exr (linear) or .png (tone-mapped)", out)
     check_writable(out)  # a bad --out fails before the render, not after it
+    _check_map_options(args)
     width, height = args.size
     light = _vector(args.light, 3, "--light")
     if math.hypot(*light) < 1e-12:

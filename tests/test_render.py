@@ -196,3 +196,20 @@ def test_no_opengl_is_a_clear_error(monkeypatch, tmp_path, capsys):
     code = main(["render", str(data_dir("materials") / "lambertian.xml"), "--size", "8,8", "--out", str(tmp_path / "o.png")])
     err = capsys.readouterr().err
     assert code == 2 and "no OpenGL 3.3 context available" in err
+
+
+@pytest.mark.parametrize("args, named", [
+    (["--env", "missing.exr"], "--env"),
+    (["--env-rotation", "30"], "--env-rotation"),
+    (["--env", "a-front.hdr", "--env-layout", "dual-paraboloid"], "--env, --env-layout"),
+])
+def test_map_options_in_point_mode_are_one_line_exit_2(tmp_path, capsys, args, named):
+    """The point light ignores the map: a map option without a map mode is a mistake named on one
+    line (it was silently ignored, and a missing map went unnoticed), and nothing is written."""
+    from brdflab.io.resources import data_dir
+
+    out = tmp_path / "o.png"
+    code = main(["render", str(data_dir("materials") / "lambertian.xml"), *args, "--size", "8,8", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and named in err and "--mode" in err and len(err.strip().splitlines()) == 1, err
+    assert not out.exists()
