@@ -2,7 +2,8 @@
 //   MODE_POINT: directional light, f(wi, wo) · max(0, n·L)
 //   MODE_FIS:   filtered importance sampling of an HDR lat-long map (Colbert & Křivánek)
 //   MODE_MIS:   FIS's BRDF samples plus samples drawn from the map's luminance
-//               (shaders/env_sampling.glsl), combined by the power heuristic
+//               (shaders/env_sampling.glsl), combined by the power heuristic; with MIS_CONTROL
+//               the prefiltered image as a control variate (shaders/mis_control.glsl)
 //   MODE_SH:    spherical harmonics (shaders/sh.glsl), unclamped so negative ringing is seen
 //   MODE_PREFILTERED: the split sum (shaders/prefiltered.glsl)
 // Outputs the sum over this batch's samples (FIS, MIS) so batches add up in a float target.
@@ -118,6 +119,14 @@ void main() {
     // read unfiltered, texel by texel (the function its density follows): filtering it over
     // a footprint, as FIS does, blurred lamps beyond the texels the density draws and cost
     // MIS its unbiasedness or its low variance (docs/mis.md).
+    // With the control (shaders/mis_control.glsl), each sample adds β P + (f·cos·L − β g) w / p:
+    // every sample's term is unbiased alone, so batches and sets of any β add up. Below the
+    // horizon g is not 0: the map's samples reach there with weight 1 (the lobes' density taken
+    // as 0 below it, as without the control, where those samples add nothing).
+#ifdef MIS_CONTROL
+    vec3 exact = u_cv_weight > 0.0 ? u_cv_weight * cv_prepare(to_world, n, wo) : vec3(0.0);
+    color = exact * float(u_sample_end - u_sample_begin);
+#endif
     for (int i = u_sample_begin; i < u_sample_end; i++) {
         vec4 s = texelFetch(u_samples, ivec2(i % u_sample_row, i / u_sample_row), 0);
         s.xy = fract(s.xy + shift);
@@ -130,15 +139,27 @@ void main() {
             wi = material_sample(int(s.z), wo, s.xy);
             d = to_world * wi;
         }
+#ifdef MIS_CONTROL
+        bool above = wi.z > 0.0;
+        if (!above && (u_cv_weight <= 0.0 || !from_env)) continue;
+        float p_brdf = above ? (1.0 - u_env_fraction) * material_pdf(wi, wo) : 0.0;
+#else
         if (wi.z <= 0.0) continue;
-        float p_env = u_env_fraction * env_density(d, u_env_rotation);
         float p_brdf = (1.0 - u_env_fraction) * material_pdf(wi, wo);
+#endif
+        float p_env = u_env_fraction * env_density(d, u_env_rotation);
         float p_own = from_env ? p_env : p_brdf;
         if (!(p_own > 0.0)) continue;
         float ratio = (from_env ? p_brdf : p_env) / p_own;
         float weight = 1.0 / (1.0 + ratio * ratio);  // p_own² / (p_env² + p_brdf²), overflow-free
+#ifdef MIS_CONTROL
+        vec3 value = u_cv_weight > 0.0 ? -u_cv_weight * cv_control(d, n, to_world, wo) : vec3(0.0);
+        if (above) value += material_eval(wi, wo) * wi.z * texelFetch(u_env, env_texel(d, u_env_rotation), 0).rgb;
+        color += value * (weight / p_own);
+#else
         vec3 radiance = texelFetch(u_env, env_texel(d, u_env_rotation), 0).rgb;
         color += material_eval(wi, wo) * wi.z * radiance * (weight / p_own);
+#endif
     }
 #endif
 #ifdef MODE_SH

@@ -20,46 +20,57 @@ uniform float u_pref_rotation;         // the map's turn about +Y, radians
 uniform sampler2D u_pref_lights;      // RGB32F, count × 2: row 0 the lights' directions in the map's frame, row 1 their radiance × solid angle
 uniform int u_pref_light_count;
 
+// light j's direction in the pixel's local frame (the map's turn undone)
+vec3 pref_light_local(int j, mat3 to_world) {
+    float c = cos(u_pref_rotation), s = sin(u_pref_rotation);
+    vec3 m = texelFetch(u_pref_lights, ivec2(j, 0), 0).rgb;
+    return vec3(c * m.x - s * m.z, m.y, s * m.x + c * m.z) * to_world;  // env_uv's turn undone, to local
+}
+
 // Σ over the lights of f(wi, wo) cos θi × power
 vec3 prefiltered_lights(mat3 to_world, vec3 wo) {
-    float c = cos(u_pref_rotation), s = sin(u_pref_rotation);
     vec3 color = vec3(0.0);
     for (int j = 0; j < u_pref_light_count; j++) {
-        vec3 m = texelFetch(u_pref_lights, ivec2(j, 0), 0).rgb;
-        vec3 wi = vec3(c * m.x - s * m.z, m.y, s * m.x + c * m.z) * to_world;  // env_uv's turn undone, to local
+        vec3 wi = pref_light_local(j, to_world);
         if (wi.z > 0.0) color += material_eval(wi, wo) * wi.z * texelFetch(u_pref_lights, ivec2(j, 1), 0).rgb;
     }
     return color;
 }
 
-// a fitted lobe's prefiltered radiance: each lookup at ψ from n, away from the view, in the
-// plane of incidence; the two view cosines around wo's blended, each row's lookups turned by the
-// pixel's view angle less the row's (the lobe moves with the view)
-vec3 mixture_light(int k, mat3 to_world, vec3 wo) {
+// lookup j of row `side` (0: the view cosine below wo's, 1: above) of lobe k's fitted mixture: its
+// world direction and stack layer, and its weight with the row's share of the blend (≤ 0: none).
+// Each lookup at ψ from n, away from the view, in the plane of incidence, turned by the pixel's
+// view angle less the row's (the lobe moves with the view)
+float mixture_lookup(int k, int side, int j, mat3 to_world, vec3 wo, out vec3 d, out float layer) {
     float x = clamp(wo.z, 0.0, 1.0) * float(PREF_COSINES - 1);
     int i0 = min(int(x), PREF_COSINES - 2);
     float f = x - float(i0);
+    vec3 e = texelFetch(u_pref_mixture, ivec2(j, k * PREF_COSINES + i0 + side), 0).rgb;
     float theta = acos(clamp(wo.z, 0.0, 1.0));
     vec2 toward = length(wo.xy) > 1e-7 ? normalize(wo.xy) : vec2(1.0, 0.0);
+    float psi = e.x + theta - acos(max(float(i0 + side) / float(PREF_COSINES - 1), PREF_MIN_COS));
+    d = to_world * vec3(-sin(psi) * toward, cos(psi));
+    layer = e.y;
+    return (side == 0 ? 1.0 - f : f) * e.z;
+}
+
+// a fitted lobe's prefiltered radiance: its lookups of the two view cosines around wo's, blended
+vec3 mixture_light(int k, mat3 to_world, vec3 wo) {
     vec3 light = vec3(0.0);
     for (int side = 0; side < 2; side++) {
-        float share = side == 0 ? 1.0 - f : f;
-        int row = k * PREF_COSINES + i0 + side;
-        float turn = theta - acos(max(float(i0 + side) / float(PREF_COSINES - 1), PREF_MIN_COS));
         for (int j = 0; j < PREF_LOOKUPS; j++) {
-            vec3 e = texelFetch(u_pref_mixture, ivec2(j, row), 0).rgb;
-            if (e.z <= 0.0) continue;
-            float psi = e.x + turn;
-            vec3 d = vec3(-sin(psi) * toward, cos(psi));
-            light += share * e.z * texture(u_pref_stack, vec3(env_uv(to_world * d, u_pref_rotation), e.y)).rgb;
+            vec3 d;
+            float layer;
+            float w = mixture_lookup(k, side, j, to_world, wo, d, layer);
+            if (w > 0.0) light += w * texture(u_pref_stack, vec3(env_uv(d, u_pref_rotation), layer)).rgb;
         }
     }
     return light;
 }
 
-vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
-    vec3 irradiance = texture(u_pref_stack, vec3(env_uv(n, u_pref_rotation), 0.0)).rgb;
-    // the albedo interpolated in full float precision (texture filtering weights have ~8 bits)
+// lobe k's directional albedo at wo (RGB), interpolated in full float precision (texture
+// filtering weights have ~8 bits)
+vec3 pref_albedo(int k, vec3 wo) {
     float x = clamp(wo.z, 0.0, 1.0) * (u_pref_albedo_size - 1.0);
     int i0 = min(int(x), int(u_pref_albedo_size) - 2);
     float f = x - float(i0);
@@ -67,12 +78,16 @@ vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
     int j0 = min(int(y), PREF_PHIS - 1);
     int j1 = (j0 + 1) % PREF_PHIS;
     float g = y - float(j0);
+    int r0 = k * PREF_PHIS + j0, r1 = k * PREF_PHIS + j1;
+    return mix(mix(texelFetch(u_pref_albedo, ivec2(i0, r0), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, r0), 0).rgb, f),
+               mix(texelFetch(u_pref_albedo, ivec2(i0, r1), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, r1), 0).rgb, f), g);
+}
+
+vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
+    vec3 irradiance = texture(u_pref_stack, vec3(env_uv(n, u_pref_rotation), 0.0)).rgb;
     vec3 color = prefiltered_lights(to_world, wo);
     for (int k = 0; k < N_LOBES; k++) {
         vec4 layers = u_pref_layers[k];
-        int r0 = k * PREF_PHIS + j0, r1 = k * PREF_PHIS + j1;
-        vec3 albedo = mix(mix(texelFetch(u_pref_albedo, ivec2(i0, r0), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, r0), 0).rgb, f),
-                          mix(texelFetch(u_pref_albedo, ivec2(i0, r1), 0).rgb, texelFetch(u_pref_albedo, ivec2(i0 + 1, r1), 0).rgb, f), g);
         vec3 light = layers.w * irradiance / PI;
         if (u_pref_fitted[k] > 0.5) light += mixture_light(k, to_world, wo);
         for (int j = 0; j < PREF_TAPS && layers.w < 1.0 && u_pref_fitted[k] < 0.5; j++) {
@@ -88,7 +103,7 @@ vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
                               texture(u_pref_stack, vec3(uv, layers.y)).rgb, layers.z);
             light += (1.0 - layers.w) * tap.z * glossy;
         }
-        color += u_lobe_scale[k] * albedo * light;
+        color += u_lobe_scale[k] * pref_albedo(k, wo) * light;
     }
     return color;
 }

@@ -3,10 +3,13 @@ reproduce it pixel for pixel, a lobe narrower than a texel converges to the quad
 instead of plateauing on a bilinear reading of the map, and the pilot's pixels catch a sun's
 highlight and weigh the view."""
 
+from functools import partial
+
 import numpy as np
 import pytest
 from conftest import DATA, needs_shared
 
+from brdflab.lighting.auto import mis_control
 from brdflab.lighting.auto_twins import (
     PilotPixels,
     converged_pixels,
@@ -19,6 +22,7 @@ from brdflab.lighting.auto_twins import (
     side_by_side_pieces,
     view_pilot,
 )
+from brdflab.lighting.control_variate import map_control
 from brdflab.lighting.env_sampling import environment_distribution
 from brdflab.lighting.envmap import EnvironmentMap, texel_of, uv_to_direction
 from brdflab.lighting.mip_pyramid import solid_angle_mips
@@ -56,22 +60,28 @@ def renderer():
     return ObjectRenderer(create_context())
 
 
-@pytest.mark.parametrize("mode", ["fis", "mis"])
+@pytest.mark.parametrize("mode", ["fis", "mis", "mis control"])
 @pytest.mark.parametrize("count", [16, 256])
 def test_twin_reproduces_the_renderer(renderer, mode, count):
     """Sample set, lobe shares, samplers, mixture density, map sampling, MIS weights and
-    lookups all match: any difference beyond float32 rounding would be another estimator."""
+    lookups all match, and MIS's control (the fitted lobe's lookups and kernels, the diffuse
+    share's irradiance, the sun as a light, the weight β): any difference beyond float32
+    rounding would be another estimator."""
     mat = material(Lobe.create("Lambertian", [0.3, 0.2, 0.1]), Lobe.create("CookTorrance", [0.5] * 3, m=0.1, F0=0.5))
     env = sun_map()
     renderer.set_source(mat)
     renderer.set_environment(env)
-    gpu = renderer.render(RenderSettings(mode, SIZE, SIZE, samples=count))[sphere_view(SIZE, SIZE).inside]
+    settings = RenderSettings(mode.split()[0], SIZE, SIZE, samples=count, mis_control=mode == "mis control")
+    gpu = renderer.render(settings)[sphere_view(SIZE, SIZE).inside]
     if mode == "fis":
         twin = fis_pixels(mat, mat, [level.astype(float) for level in solid_angle_mips(env.data)], frames(SIZE), count)
     else:
         rows, cols = np.nonzero(sphere_view(SIZE, SIZE).inside)  # the shader's per-pixel shifts (y from the bottom)
+        control = (map_control(env, mat), renderer.control_weight()) if settings.mis_control else None
+        if control is not None:
+            assert 0.0 < control[1] <= 1.0 and control[0].excess[..., 3].max() >= 0  # the sun is one of the lights
         twin = mis_pixels(mat, mat, env, environment_distribution(env), frames(SIZE), count,
-                          pixel_shifts(cols, SIZE - 1 - rows))
+                          pixel_shifts(cols, SIZE - 1 - rows), control)
     assert np.abs(twin - gpu).max() <= 1e-4 * np.abs(gpu).max()
 
 
@@ -98,8 +108,9 @@ def test_twin_samples_a_measured_table_as_the_renderer_does(renderer, mode):
             levels = [level.astype(float) for level in solid_angle_mips(env.data)]
             twin = fis_pixels(source, proxy_lobes(source), levels, frames(SIZE), count)
         else:
-            twin = mis_pixels(source, proxy_lobes(source), env, environment_distribution(env), frames(SIZE), count,
-                              pixel_shifts(cols, SIZE - 1 - rows))
+            proxy = renderer.material
+            twin = mis_pixels(source, proxy, env, environment_distribution(env), frames(SIZE), count,
+                              pixel_shifts(cols, SIZE - 1 - rows), (map_control(env, proxy), renderer.control_weight()))
         assert np.sqrt(((twin - gpu) ** 2).mean() / (gpu**2).mean()) < 0.01, (mode, count)
 
 
@@ -136,7 +147,8 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     every = frames(SIZE)
     uniform = PilotPixels(every, np.full(len(every[0]), 1.0 / len(every[0])))
     pilot = view_pilot(mat, mat, env, uniform)
-    for mode, errors in (("fis", fis_errors), ("mis", mis_errors)):
+    control = mis_control(mat, mat, env, pilot)
+    for mode, errors in (("fis", fis_errors), ("mis", partial(mis_errors, control=control))):
         for n, p in errors(mat, mat, env, (16, 256), pilot).items():
             settings = RenderSettings(mode, SIZE, SIZE, samples=n)
             judged = lambda image: max(relative_rmse(image, reference, inside), pixel_relative_rmse(image, reference, inside))

@@ -657,11 +657,17 @@ class ObjectView(_GLView):
         if self.settings.mode == "mis" and r.environment is not None and not r.env_distribution_ready():
             return (environment_distribution, (r.environment,), partial(r.remember_env_distribution, r.environment),
                     "preparing the map for MIS…")
-        if self.settings.mode == "prefiltered" and r.environment is not None and not r.prefiltered_ready():
+        stacked = self.settings.mode == "prefiltered" or (self.settings.mode == "mis" and self.settings.mis_control)
+        if stacked and r.environment is not None and not r.prefiltered_ready():
             return stored_or_built, (r.environment, map_key(r.environment)), remember_stack, "prefiltering the environment map…"
         pref = r.prefiltered
-        if self.settings.mode == "prefiltered" and r.material is not None and not pref.splits_ready(r.material):
+        if stacked and r.material is not None and not pref.splits_ready(r.material):
             return material_split, (r.material,), partial(pref.remember_splits, pref.material_key(r.material)), ""
+        if self.settings.mode == "mis" and self.settings.mis_control and r.environment is not None \
+                and r.material is not None and not r.control_weight_ready():
+            function, args = r.control_weight_job()
+            return (function, args, partial(r.remember_control_weight, pref.material_key(r.material), r.lit_source(),
+                                            r.environment), "weighing MIS's control for this material and map…")
         return None
 
     @staticmethod

@@ -29,6 +29,7 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
+from brdflab.lighting.control_variate import FITTED_LOBES
 from brdflab.lighting.envmap import EnvironmentMap
 from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.prefilter import LIGHTS, bright_lights, reduced
@@ -45,7 +46,11 @@ PREFILTERED_BOUND = 0.05  # issue 36: the split sum within 5 % per pixel, or the
 # lobe drawn by its fitted lookups (lighting/view_mixture.py) adds half the 32-light frame (Blinn–Phong n = 100,
 # venice: 10.3 → 15.4 ms per 256² frame, docs/bench/prefiltered.json)
 FRAME_COST_MS = {"prefiltered": lambda lights, fitted=0: 5.0 * (3.1 + 0.1125 * lights + 3.35 * fitted) / (3.1 + 0.1125 * LIGHTS),
-                 "sh": lambda L: 0.28 * L**4, "fis": lambda n: 1.7 * n, "mis": lambda n: 2.6 * n}
+                 "sh": lambda L: 0.28 * L**4, "fis": lambda n: 1.7 * n,
+                 # MIS draws its control (lighting/control_variate.py) at every sample: its frames cost 1.5–1.6× the
+                 # plain estimator's without a fitted lobe in it (the irradiance kernel and the lights), 3.1–3.3× with one
+                 # (16 lookups' kernels a sample; 128², 64 samples, city-night)
+                 "mis": lambda n, fitted=0: 2.6 * n * (1.55 + 1.65 * min(fitted, FITTED_LOBES))}
 
 
 @dataclass(frozen=True)
@@ -125,8 +130,10 @@ def map_character(pilot: Pilot) -> str:
 
 def frame_cost(mode: str, setting: int | None, lights: int = LIGHTS, fitted: int = 0) -> float:
     """The frame-cost model's milliseconds (`lights`: the prefiltered stack's exact lights;
-    `fitted`: the material's lobes drawn by fitted lookups there)."""
-    return FRAME_COST_MS[mode](lights, fitted) if mode == "prefiltered" else FRAME_COST_MS[mode](setting)
+    `fitted`: the material's lobes drawn by fitted lookups there, and in MIS's control)."""
+    if mode == "prefiltered":
+        return FRAME_COST_MS[mode](lights, fitted)
+    return FRAME_COST_MS[mode](setting, fitted) if mode == "mis" else FRAME_COST_MS[mode](setting)
 
 
 def settings(lights: int = LIGHTS, fitted: int = 0) -> list[tuple[str, int | None]]:
@@ -148,6 +155,7 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
     from brdflab.lighting.view_mixture import fits
 
     view = cache(lambda: view_pilot(source, proxy, env))
+    control = cache(lambda: mis_control(source, proxy, env, view()))
     levels = cache(lambda: [level.astype(float) for level in solid_angle_mips(env.data)])
     lights = len(bright_lights(reduced(env))[1])  # as the map's stack holds them
     fitted = sum(fits(lobe) for lobe in proxy.lobes)  # counted, not fitted: prefiltered may not be weighed
@@ -163,9 +171,18 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
                             f"map × lobe energy beyond order {setting}: {100 * truncated:.1f} %")
         else:
             errors = (fis_errors(source, proxy, env, [setting], view(), levels()) if mode == "fis"
-                      else mis_errors(source, proxy, env, [setting], view()))
+                      else mis_errors(source, proxy, env, [setting], view(), control()))
             yield Candidate(mode, setting, errors[setting], cost,
                             f"its {setting}-sample estimator at the pilot pixels against a converged one")
+
+
+def mis_control(source, proxy, env: EnvironmentMap, view) -> tuple:
+    """(the map's control, its weight β) as the renderer's MIS draws them for this material."""
+    from brdflab.lighting.auto_twins import weight_for
+    from brdflab.lighting.control_variate import map_control
+
+    control = map_control(env, proxy)
+    return control, weight_for(source, proxy, env, control, view.dist)
 
 
 def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candidate]:

@@ -237,13 +237,27 @@ def fis_pixels(source, proxy, levels: list[np.ndarray], frames, count: int) -> n
 
 
 def mis_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int,
-               shifts: np.ndarray | None = None) -> np.ndarray:
+               shifts: np.ndarray | None = None, control: tuple | None = None) -> np.ndarray:
     """The MIS mode's RGB value (pixels, 3) at each pilot pixel with `count` samples: the
     renderer's own set (`mis_sample_set`: half from the lobes, half from the map's luminance
     `dist`) shifted per pixel as the shader does, Veach's multi-sample estimator with the power
     heuristic, the map texel by texel. `shifts` (pixels, 2): the window pixels' own
     (`pixel_shifts`); by default the shifts of pixels (0, 0), (1, 0), … (pilot pixels are
-    not window pixels; what matters is that each has its own, as each pixel does)."""
+    not window pixels; what matters is that each has its own, as each pixel does).
+    `control` (a `control_variate.MapControl`, its weight β): the estimate with the prefiltered
+    control, β P + MIS[f·cos·L − β g]."""
+    plain, controlled, exact = mis_parts(source, proxy, env, dist, frames, count, shifts,
+                                         None if control is None or control[1] == 0.0 else control[0])
+    return plain if exact is None else plain + control[1] * (exact - controlled)
+
+
+def mis_parts(source, proxy, env: EnvironmentMap, dist, frames, count: int, shifts: np.ndarray | None = None,
+              control=None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """MIS's estimate of the pixels (`mis_pixels` without a control), and with a
+    `control_variate.MapControl` the same samples' estimate of the control and the control's
+    integral (each (pixels, 3)), from which the estimate at any weight β is made (β is chosen
+    by `control_weight` from these, on draws of their own)."""
+    from brdflab.lighting.control_variate import control_values, pixel_control
     from brdflab.lighting.sampling_sets import mis_sample_set, pixel_shifts
 
     sampling, shares = renderer_sampling(source, proxy)
@@ -259,14 +273,71 @@ def mis_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int,
     world = _to_world(frames, wi)
     p_map = env_fraction * dist.pdf(world)
     p_lobes = (1.0 - env_fraction) * mixture_pdf(sampling, wi, np.broadcast_to(_views(frames)[:, None], wi.shape), fractions)
+    p_lobes = np.where(wi[..., 2] > 0, p_lobes, 0.0)  # below the horizon the map's samples alone (weight 1)
     own = np.where(from_map, p_map, p_lobes)
     other = np.where(from_map, p_lobes, p_map)
-    ok = (wi[..., 2] > 0) & (own > 0)
+    ok = own > 0
     own = np.where(ok, own, 1.0)
-    weight = np.where(ok, 1.0 / (1.0 + (other / own) ** 2), 0.0)  # the power heuristic, as the shader writes it
+    weight = np.where(ok, 1.0 / (1.0 + (other / own) ** 2), 0.0) / own  # the power heuristic, as the shader writes it
     radiance = env.data.astype(float)[texel_of(world, env.height, env.width)]
-    value = _f_cos(source, frames, wi) * radiance * (weight / own)[..., None]
-    return value.sum(axis=1) / len(data)
+    plain = (_f_cos(source, frames, wi) * radiance * weight[..., None]).sum(axis=1) / len(data)
+    if control is None:
+        return plain, None, None
+    terms = pixel_control(proxy, control.stack, frames, lit=source)
+    g = control_values(terms, control.stack, control.excess, source, frames, world)
+    return plain, (g * weight[..., None]).sum(axis=1) / len(data), terms.exact
+
+
+CONTROL_SAMPLES = 64  # samples per pixel of the draws the control's weight is chosen on …
+CONTROL_DRAWS = 4  # … and how many (a family of shifts of their own: β is fixed before a render's samples)
+
+
+def control_weight(source, proxy, env: EnvironmentMap, control, dist=None, pixels: PilotPixels | None = None) -> float:
+    """The control's weight β for this material and map, in [0, 1]: the least-squares control
+    coefficient Σ Cov(X, Y) / Σ Var(Y) over the pilot pixels (X the plain estimate, Y the
+    control's, their covariance over CONTROL_DRAWS independent draws of CONTROL_SAMPLES
+    samples), each pixel weighted by its share of the view over its value squared (the
+    per-pixel relative error Auto judges). 1 takes all of the variance the control explains
+    where it is close to the integrand; less where subtracting it adds its own."""
+    from brdflab.lighting.env_sampling import environment_distribution
+    from brdflab.lighting.sampling_sets import pixel_shifts
+
+    pixels = pixels or fis_pixels_of(env)
+    dist = dist or environment_distribution(env)
+    frames = pixels.frames
+    count = len(frames[0])
+    draws = [pixel_shifts(np.arange(count), np.full(count, (1 << 21) + draw)) for draw in range(CONTROL_DRAWS)]
+    estimate = lambda part, shifts: np.stack(mis_parts(source, proxy, env, dist, part, CONTROL_SAMPLES, shifts, control)[:2], 1)
+    parts = side_by_side_pieces([in_pieces(estimate, frames, CONTROL_SAMPLES, shifts) for shifts in draws])
+    lum = np.stack(parts) @ LUMINANCE  # (draws, pixels, 2): plain and control, luminance
+    x, y = lum[..., 0], lum[..., 1]
+    scale = np.abs(x.mean(0))
+    scale = np.maximum(scale, 1e-2 * max(float(np.median(scale)), 1e-300))
+    w = pixels.weight / scale**2
+    cov = (w * ((x - x.mean(0)) * (y - y.mean(0))).sum(0)).sum()
+    var = (w * ((y - y.mean(0)) ** 2).sum(0)).sum()
+    return float(np.clip(cov / var, 0.0, 1.0)) if var > 0.0 else 0.0
+
+
+_WEIGHTS: dict = {}  # weight_for's answers: (material, lit source, map) → β
+_WEIGHTS_KEPT = 16
+
+
+def weight_for(source, proxy, env: EnvironmentMap, control=None, dist=None) -> float:
+    """`control_weight` for this material and map (the map's control and distribution made
+    here unless given: what the window's worker runs), remembered for the (material, table,
+    map) it was chosen for: Auto and the render it picks use the same β, computed once."""
+    from brdflab.lighting.control_variate import map_control
+    from brdflab.lighting.prefilter import map_key
+    from brdflab.material.analytic import AnalyticMaterial
+
+    lobes = tuple((lobe.model.name, tuple(sorted(lobe.params.items()))) for lobe in proxy.lobes)
+    key = (lobes, proxy.rgb_scales().tobytes(), None if isinstance(source, AnalyticMaterial) else id(source), map_key(env))
+    if key not in _WEIGHTS:
+        while len(_WEIGHTS) >= _WEIGHTS_KEPT:
+            _WEIGHTS.pop(next(iter(_WEIGHTS)))
+        _WEIGHTS[key] = control_weight(source, proxy, env, control or map_control(env, proxy), dist)
+    return _WEIGHTS[key]
 
 
 def _mixture_estimate(source, proxy, env: EnvironmentMap, dist, frames, count: int, shifts: np.ndarray) -> np.ndarray:
@@ -386,12 +457,14 @@ def view_pilot(source, proxy, env: EnvironmentMap, pixels: PilotPixels | None = 
     return ViewPilot(pixels, (a + b) / 2, dist, half**2, (half[:, :3] @ LUMINANCE) ** 2)
 
 
-def mis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None) -> dict[int, float]:
+def mis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None,
+               control: tuple | None = None) -> dict[int, float]:
     """Per sample count N: the MIS mode's predicted relative RMSE over the view: the RMS over
     MIS_DRAWS independent draws of the pilot pixels' shifts. With each pixel its own shift an
     image is one draw, and under a sun a draw's error is heavy-tailed (a measured paint at 256
     samples: 0.6–6.5 % from one image to the next); one pilot draw predicted 0.67 % where the
-    image came out 7.5 %, the RMS of six draws 5.0 % against the images' 3.3 %."""
+    image came out 7.5 %, the RMS of six draws 5.0 % against the images' 3.3 %. `control`:
+    (`control_variate.MapControl`, β), the renderer's estimator with its control (`mis_pixels`)."""
     from brdflab.lighting.sampling_sets import pixel_shifts
 
     pilot = pilot or view_pilot(source, proxy, env)
@@ -400,7 +473,7 @@ def mis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | No
     draws = [pixel_shifts(np.arange(pixels), np.full(pixels, draw)) for draw in range(MIS_DRAWS)]
     out = {}
     for count in counts:
-        estimate = lambda part, shifts: mis_pixels(source, proxy, env, pilot.dist, part, count, shifts)
+        estimate = lambda part, shifts: mis_pixels(source, proxy, env, pilot.dist, part, count, shifts, control)
         images = side_by_side_pieces([in_pieces(estimate, frames, count, shifts) for shifts in draws])
         out[count] = float(np.sqrt(np.mean([pilot.error(values) ** 2 for values in images])))
     return out

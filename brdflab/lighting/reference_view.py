@@ -90,6 +90,8 @@ def by_texel_centres(source, d: np.ndarray, weight: np.ndarray, frame: tuple, wo
     if keep is not None:
         seen &= keep.astype(bool)
     texel, pixel = np.nonzero(seen)
+    if not len(pixel):  # no texel above any pixel's horizon (a few pixels facing away from a lamp)
+        return np.zeros((len(wo), 3))
     f = _rgb(source.evaluate(wi[texel, pixel], wo[pixel]), (len(pixel),))
     g = f * (wi[texel, pixel, 2][:, None] * weight[texel])
     return np.stack([np.bincount(pixel, g[:, c], minlength=len(wo)) for c in range(3)], axis=-1)

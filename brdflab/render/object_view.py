@@ -23,6 +23,7 @@ from brdflab.render.camera import OrbitCamera, gl_matrix
 from brdflab.render.prefiltered import PrefilteredLighting
 from brdflab.lighting.split_sum import ALBEDO_PHIS, TAPS
 from brdflab.lighting.view_mixture import COSINES as MIXTURE_COSINES, LOOKUPS, MIN_COS as MIXTURE_MIN_COS
+from brdflab.lighting.control_variate import FITTED_LOBES, layer_kernels
 from brdflab.render.glsl import GLSL_VERSION, MAX_LOBES, lobe_uniforms, material_source, models_of, set_uniforms, shader_source
 from brdflab.render.tabulated import TabulatedTextures
 from brdflab.lighting.env_sampling import environment_distribution
@@ -47,6 +48,7 @@ class RenderSettings:
     light_color: tuple[float, float, float] = (1.0, 1.0, 1.0)
     env_rotation: float = 0.0  # degrees about +Y
     reference_view: bool = True
+    mis_control: bool = True  # MIS: the prefiltered image as a control variate (lighting/control_variate.py)
 
 
 def _set(program: moderngl.Program, name: str, value) -> None:
@@ -74,6 +76,7 @@ class ObjectRenderer:
         self._env_tables: tuple[moderngl.Texture, moderngl.Texture] | None = None  # MIS: marginal, table
         self._env_distribution: tuple | None = None  # (map, its luminance distribution), made elsewhere
         self._env_fraction = 0.0
+        self._control: tuple | None = None  # MIS's control weight: (material key, lit source, map, β)
         self.env_size = (1, 1)
         self.camera = OrbitCamera()
         self.model_rotation = np.eye(3)  # turns the object (meshes) in the world
@@ -216,6 +219,35 @@ class ObjectRenderer:
                 tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             self._env_tables = (marginal, table_tex)
         return self._env_tables
+
+    # --- MIS's control variate ----------------------------------------------------------------
+    def lit_source(self):
+        """What the material is evaluated with at the map's lights: a measured table, or the material."""
+        return self.source if self.measured else self.material
+
+    def control_weight_ready(self) -> bool:
+        """Whether MIS knows its control's weight for this material and map (a pilot of
+        0.1–0.5 s: the window has a worker compute it, `control_weight_job`)."""
+        held = self._control
+        return (held is not None and held[1] is self.lit_source() and held[2] is self.environment
+                and held[0] == self.prefiltered.material_key(self.material))
+
+    def control_weight_job(self) -> tuple:
+        """(function, arguments) that compute the control's weight, e.g. in a worker process."""
+        from brdflab.lighting.auto_twins import weight_for
+
+        return weight_for, (self.lit_source(), self.material, self.environment)
+
+    def remember_control_weight(self, material_key: tuple, lit, env: EnvironmentMap, weight: float) -> None:
+        self._control = (material_key, lit, env, float(weight))
+
+    def control_weight(self) -> float:
+        """The control's weight β for this material and map: the remembered one, else computed here."""
+        if not self.control_weight_ready():
+            function, args = self.control_weight_job()
+            self.remember_control_weight(self.prefiltered.material_key(self.material), self.lit_source(), self.environment,
+                                         function(*args))
+        return self._control[3]
 
     # --- spherical harmonics ------------------------------------------------------------------
     def _release_sh(self) -> None:
@@ -397,10 +429,11 @@ class ObjectRenderer:
             self.sh_shadows or self.sh_variant != "dynamic")
 
     def _program(self, models: tuple[str, ...], mode: str, reference: bool, measured: bool = False,
-                 n_channels: int = 3) -> moderngl.Program:
+                 n_channels: int = 3, control: bool = False) -> moderngl.Program:
         shadowed = self._shadowed(mode, reference)
+        control = control and mode == "mis"
         key = (models, n_channels, mode, reference, measured, self.sh_order if mode == "sh" else 0, shadowed,
-               self.sh_variant if shadowed else "")
+               self.sh_variant if shadowed else "", control)
         if key not in self._programs:
             defines = f"#define MODE_{mode.upper()}\n" + ("#define GEOMETRY_REFERENCE\n" if reference else "")
             material = material_source(models, measured, n_channels)
@@ -417,11 +450,16 @@ class ObjectRenderer:
                     elif self.sh_variant == "fixed-view":
                         defines += "#define SH_FIXED_VIEW\n"
                 material += shader_source("sh.glsl")
-            if mode == "prefiltered":
+            if mode == "prefiltered" or control:
                 defines += (f"#define PREF_TAPS {TAPS}\n#define PREF_PHIS {ALBEDO_PHIS}\n"
                             f"#define PREF_COSINES {MIXTURE_COSINES}\n#define PREF_LOOKUPS {LOOKUPS}\n"
                             f"#define PREF_MIN_COS {MIXTURE_MIN_COS!r}\n")
                 material += shader_source("prefiltered.glsl")
+            if control:
+                fitted = min(len(models), FITTED_LOBES)
+                defines += (f"#define MIS_CONTROL\n#define PREF_LAYERS {len(layer_kernels())}\n"
+                            f"#define CV_FITTED {fitted}\n#define CV_LOOKUPS {2 * LOOKUPS * fitted}\n")
+                material += shader_source("mis_control.glsl")
             self._programs[key] = self.ctx.program(
                 vertex_shader=GLSL_VERSION + defines + shader_source("object_vertex.glsl"),
                 fragment_shader=GLSL_VERSION + defines + material + shader_source("object_fragment.glsl"),
@@ -449,7 +487,8 @@ class ObjectRenderer:
             raise BRDFLabError(f"unknown lighting mode {settings.mode!r} ({', '.join(MODES)})")
         reference = settings.reference_view or self.mesh is None
         models = models_of(self.material)
-        prog = self._program(models, settings.mode, reference, self.measured, self.material.n_channels)
+        control = settings.mode == "mis" and settings.mis_control
+        prog = self._program(models, settings.mode, reference, self.measured, self.material.n_channels, control)
         set_uniforms(prog, self._material_terms())
         if self.measured:
             self.table_texture.use(2)
@@ -482,6 +521,10 @@ class ObjectRenderer:
             _set(prog, "u_env_marginal", 6)
             _set(prog, "u_env_table", 7)
             _set(prog, "u_env_fraction", float(self._env_fraction))
+            if control:
+                self.prefiltered.bind(prog, self.environment, self.material, settings.env_rotation)
+                self.prefiltered.bind_control(prog, self.environment)
+                _set(prog, "u_cv_weight", self.control_weight())
         if settings.mode == "sh":
             order, table, rx, half = self._sh_resources(settings)
             table.use(3)

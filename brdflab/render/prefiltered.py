@@ -20,6 +20,7 @@ STACK_UNIT = 10  # texture units, clear of the other modes' (0–5)
 ALBEDO_UNIT = 11
 LIGHTS_UNIT = 13  # clear of tabulated.TAB_UNIT (12) too
 MIXTURE_UNIT = 14
+EXCESS_UNIT = 15  # MIS's control: the lights' excess texel by texel
 
 
 class PrefilteredLighting:
@@ -30,6 +31,7 @@ class PrefilteredLighting:
         self._stack: tuple[EnvironmentMap, moderngl.TextureArray, moderngl.Texture, int] | None = None  # (map, layers, lights, count)
         self._albedo: tuple[tuple, moderngl.Texture, moderngl.Texture, dict] | None = None  # (key, albedo, mixtures, uniforms)
         self._splits: tuple[tuple, list] | None = None  # (material key, material_split) made elsewhere
+        self._excess: tuple[EnvironmentMap, moderngl.Texture] | None = None  # MIS's control, per map
 
     def ready(self, env: EnvironmentMap) -> bool:
         """Whether `env`'s stack is uploaded or cached (drawing it builds nothing)."""
@@ -120,11 +122,36 @@ class PrefilteredLighting:
             else:
                 program[name].value = value
 
+    def bind_control(self, program: moderngl.Program, env: EnvironmentMap) -> None:
+        """MIS's control (shaders/mis_control.glsl), after `bind`: the lights' excess at the
+        stack's texels and each layer's kernel."""
+        from brdflab.lighting.control_variate import excess_radiance, layer_kernels
+        from brdflab.lighting.prefilter import prefiltered_stack
+        from brdflab.render.glsl import set_uniforms
+
+        if self._excess is None or self._excess[0] is not env:
+            self.release_excess()
+            excess = np.ascontiguousarray(excess_radiance(prefiltered_stack(env)), np.float32)
+            tex = self.ctx.texture((excess.shape[1], excess.shape[0]), 4, excess.tobytes(), dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self._excess = (env, tex)
+        self._excess[1].use(EXCESS_UNIT)
+        if "u_cv_excess" in program:
+            program["u_cv_excess"].value = EXCESS_UNIT
+        if "u_cv_layer" in program:
+            set_uniforms(program, {"u_cv_layer": layer_kernels().astype(np.float32)})
+
+    def release_excess(self) -> None:
+        if self._excess is not None:
+            self._excess[1].release()
+        self._excess = None
+
     def release_stack(self) -> None:
         if self._stack is not None:
             self._stack[1].release()
             self._stack[2].release()
         self._stack = None
+        self.release_excess()
 
     def release_albedo(self) -> None:
         if self._albedo is not None:

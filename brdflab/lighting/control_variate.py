@@ -1,0 +1,205 @@
+"""The prefiltered image as a control variate for MIS (issue 36 goal 2): the NumPy twin of
+shaders/mis_control.glsl.
+
+A pixel is estimated as β P + MIS_N[f·cos·L − β g], where g is a function of the incoming
+direction whose integral over the sphere is P, exactly:
+- the irradiance kernel max(0, n·ω) × the diffuse shares' coefficient (albedo × share / π), and
+  for each lookup of a rough lobe's fitted mixture (`split_sum.mixture_lookups`, the first
+  FITTED_LOBES such lobes) its coefficient × its layer's kernel about the lookup's direction,
+  normalised over the sphere (`layer_kernels`) — all × the stack's dimmed map texel by texel;
+  their integrals are the stack's convolutions, read where the prefiltered mode reads them;
+- for each of the stack's lights (a bright texel's excess over the dimmed map), f·cos at the
+  texel's centre × the excess inside that texel: its integral is the prefiltered mode's sum
+  over its lights.
+So P is the prefiltered mode's image less its glossy and anisotropic lobes' taps (which, not
+close to their lobes sample by sample, added variance: docs/mis.md). The estimate is unbiased
+for any g with a known integral and any weight β fixed before the samples are drawn: below a
+pixel's horizon f·cos is 0 and g is not, and the map's half of the set reaches there with
+weight 1 (the lobes' density is taken as 0 below the horizon, in the shader as here). The one
+approximation is how the stack holds a convolution (by its texel quadrature at texel centres,
+read bilinearly between them), bounded in tests/test_mis_control.py.
+
+β is chosen per material and map by `auto_twins.control_weight` (the least-squares control
+coefficient over pilot pixels): 1 where the split sum is close to the lobe (a Lambertian, a
+rough fitted lobe), less where it is not (a glossy lobe, a measured table against its proxy).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from brdflab.lighting.envmap import texel_of
+from brdflab.lighting.prefilter import ALPHAS, KERNEL_FUNCTIONS, KERNELS, PrefilteredStack, StackLayers, phong_exponent
+from brdflab.lighting.split_sum import albedo_at, material_split, mixture_lookups, sample_latlong
+from brdflab.material.analytic import AnalyticMaterial
+
+FITTED_LOBES = 4  # fitted lobes in the control at most (the shader holds their 2 × 8 lookups per pixel)
+DIMMED_LAYER = 1  # the stack's first Beckmann layer, α = 0: the dimmed map itself
+FAMILIES = ("cosine", *KERNELS)  # a layer's kernel, by its index in the shader's u_cv_layer
+
+
+def layer_families() -> list[tuple[int, float]]:
+    """Per stack layer: (family index in FAMILIES, its α; −1 for a layer that is the map itself)."""
+    out = [(0, 0.0)]
+    for kernel in KERNELS:
+        out += [(FAMILIES.index(kernel), alpha) if alpha > 0.0 else (-1, 0.0) for alpha in ALPHAS]
+    return out
+
+
+def kernel_values(family: int, alpha: float, c: np.ndarray) -> np.ndarray:
+    """A stack layer's kernel at cosines c to its centre, unnormalised (the stack's own:
+    `prefilter.cosine_kernel`, `specular_kernel`)."""
+    c = np.asarray(c, float)
+    name = FAMILIES[family]
+    if name == "cosine":
+        return np.maximum(c, 0.0)
+    if name == "phong":
+        return np.where(c > 0.0, np.maximum(c, 1e-30) ** (phong_exponent(alpha) + 1.0), 0.0)
+    return KERNEL_FUNCTIONS[name](np.sqrt(0.5 * (1.0 + c)), alpha) * np.maximum(c, 0.0)
+
+
+@lru_cache(maxsize=1)
+def layer_kernels() -> np.ndarray:
+    """(layers, 3): each layer's (family, α, 1 / what its convolution is divided by): 1 for the irradiance (unnormalised), 1 / ∫K over the sphere for the others, 0
+    for a layer that is the map itself (no kernel). The integral by the trapezoid rule in θ on a
+    grid dense at θ = 0, where the narrowest kernel (α = 0.02) lives."""
+    theta = np.pi * np.linspace(0.0, 1.0, 200_001) ** 3
+    rows = []
+    for family, alpha in layer_families():
+        if family < 0:
+            rows.append((0.0, 0.0, 0.0))
+            continue
+        if FAMILIES[family] == "cosine":
+            rows.append((0.0, 0.0, 1.0))
+            continue
+        k = kernel_values(family, alpha, np.cos(theta))
+        integral = 2.0 * np.pi * np.trapezoid(k * np.sin(theta), theta)
+        rows.append((float(family), alpha, 1.0 / integral))
+    return np.array(rows)
+
+
+def excess_radiance(stack: PrefilteredStack | StackLayers) -> np.ndarray:
+    """(H, W, 4) at the stack's texels: each light's excess radiance (its power / its texel's
+    solid angle) and its index among the stack's lights; 0 and −1 elsewhere."""
+    from brdflab.lighting.envmap import EnvironmentMap
+
+    h, w = stack.irradiance().shape[:2]
+    out = np.zeros((h, w, 4))
+    out[..., 3] = -1.0
+    if len(stack.lights):
+        rows, cols = texel_of(stack.light_directions.astype(float), h, w)
+        _, solid = EnvironmentMap(np.zeros((h, w, 3), np.float32), "grid").texel_directions()
+        out[rows, cols, :3] = stack.light_power.astype(float) / solid[rows, 0][:, None]
+        out[rows, cols, 3] = np.arange(len(stack.lights))
+    return out
+
+
+@dataclass(frozen=True)
+class PixelControl:
+    """The control at some pixels: what it integrates to (`exact`, (pixels, 3)) and what g is
+    made of there — the irradiance kernel's coefficient (pixels, 3) and the fitted lookups'
+    layers (pixels, M), world directions (pixels, M, 3) and coefficients (pixels, M, 3)."""
+
+    exact: np.ndarray
+    diffuse: np.ndarray
+    layers: np.ndarray
+    directions: np.ndarray
+    coefficients: np.ndarray
+
+
+def fitted_lookups(material: AnalyticMaterial, frames) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(irradiance coefficient (pixels, 3), layers, directions, coefficients) of g at pixels whose
+    frames are (normal, tangent, bitangent) with the view world +Z (the reference view)."""
+    n, t, b = frames
+    pixels = len(n)
+    wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)
+    diffuse = np.zeros((pixels, 3))
+    layers, directions, coefficients = [np.zeros((pixels, 0), int)], [np.zeros((pixels, 0, 3))], [np.zeros((pixels, 0, 3))]
+    fitted = 0
+    for split, rgb in zip(material_split(material), material.rgb_scales()):
+        scale = albedo_at(split.albedo, wo) * rgb
+        diffuse += scale * split.diffuse_share / np.pi
+        if split.mixture is not None and fitted < FITTED_LOBES:
+            fitted += 1
+            layer, d, weight = mixture_lookups(split.mixture, n, t, b, wo)
+            layers.append(layer)
+            directions.append(d)
+            coefficients.append(scale[:, None] * weight[..., None])
+    return diffuse, np.concatenate(layers, 1), np.concatenate(directions, 1), np.concatenate(coefficients, 1)
+
+
+def pixel_control(material: AnalyticMaterial, stack: PrefilteredStack | StackLayers, frames, lit=None) -> PixelControl:
+    """The control at the pixels (`fitted_lookups`), with its integral: the irradiance and each
+    lookup's layer read from the stack as the prefiltered mode reads them, and the stack's
+    lights evaluated with `lit` (the material itself unless given: a measured source)."""
+    from brdflab.lighting.reference_view import by_texel_centres
+
+    n, t, b = frames
+    wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)
+    diffuse, layers, directions, coefficients = fitted_lookups(material, frames)
+    exact = diffuse * sample_latlong(stack.irradiance(), n)
+    exact += by_texel_centres(material if lit is None else lit, stack.light_directions.astype(float),
+                              stack.light_power.astype(float), (t, b, n), wo)
+    for k in np.unique(layers):
+        at = np.where((layers == k)[..., None], coefficients, 0.0)
+        exact += (at * sample_latlong(stack.layers[k], directions)).sum(1)
+    return PixelControl(exact, diffuse, layers, directions, coefficients)
+
+
+def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers, excess: np.ndarray, lit, frames,
+                   world: np.ndarray) -> np.ndarray:
+    """g (pixels, samples, 3) at world directions `world` (pixels, samples, 3): the kernels
+    × the dimmed map texel by texel, plus a light texel's f·cos at its centre × its excess
+    (`lit`: what the renderer evaluates there, the material or a measured table)."""
+    n, t, b = frames
+    rows, cols = texel_of(world, *excess.shape[:2])
+    kernels = layer_kernels()
+    weight = control.diffuse[:, None] * np.maximum(np.einsum("psc,pc->ps", world, n), 0.0)[..., None]
+    if control.layers.shape[1]:
+        cosines = np.einsum("psc,pmc->psm", world, control.directions)
+        for k in np.unique(control.layers):
+            family, alpha, inverse = kernels[k]
+            if inverse <= 0.0:
+                continue
+            values = kernel_values(int(family), alpha, cosines) * inverse * (control.layers == k)[:, None]
+            weight += np.einsum("psm,pmc->psc", values, control.coefficients)
+    g = weight * stack.layers[DIMMED_LAYER][rows, cols].astype(float)
+    light = excess[rows, cols, 3].astype(int)
+    hit = light >= 0
+    if hit.any():
+        pixel = np.broadcast_to(np.arange(len(n))[:, None], light.shape)[hit]
+        centre = stack.light_directions[light[hit]].astype(float)
+        local = np.stack([(centre * t[pixel]).sum(-1), (centre * b[pixel]).sum(-1), (centre * n[pixel]).sum(-1)], -1)
+        wo = np.stack([t[pixel, 2], b[pixel, 2], n[pixel, 2]], -1)
+        f = np.asarray(lit.evaluate(local, wo), float)
+        f = f[:, :3] if f.shape[-1] >= 3 else np.repeat(f[:, :1], 3, -1)
+        g[hit] += np.where(local[:, 2:] > 0.0, f * local[:, 2:], 0.0) * excess[rows[hit], cols[hit], :3]
+    return g
+
+
+def control_layers(material: AnalyticMaterial) -> set[int]:
+    """The stack layers the control of `material` reads: the irradiance, the dimmed map and its
+    fitted lobes' layers."""
+    wanted = {0, DIMMED_LAYER}
+    fitted = [split for split in material_split(material) if split.mixture is not None][:FITTED_LOBES]
+    return wanted.union(*(split.stack_layers() for split in fitted))
+
+
+@dataclass(frozen=True)
+class MapControl:
+    """A map's part of the control: its stack (or the layers a material's control reads) and
+    its lights' excess texel by texel (`excess_radiance`)."""
+
+    stack: PrefilteredStack | StackLayers
+    excess: np.ndarray
+
+
+def map_control(env, material: AnalyticMaterial) -> MapControl:
+    """The map's stack where it is built, else the layers `material`'s control reads."""
+    from brdflab.lighting.prefilter import stack_layers
+
+    stack = stack_layers(env, control_layers(material))
+    return MapControl(stack, excess_radiance(stack))
