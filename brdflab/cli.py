@@ -595,7 +595,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     auto = _resolve_auto(args, source, renderer) if args.mode == "auto" else None
     prefiltered = _prefiltered_check(args, source, renderer) if args.mode == "prefiltered" else None
     settings = RenderSettings(mode=args.mode, width=width, height=height, samples=args.samples, light=light,
-                              env_rotation=args.env_rotation, reference_view=args.view == "reference")
+                              env_rotation=args.env_rotation, reference_view=args.view == "reference",
+                              mis_control=args.mis_control == "on")
     if args.mode == "sh":
         renderer.set_sh_order(args.sh_order, None if args.sh_window == "none" else args.sh_window)
         renderer.sh_shadows = args.sh_shadows
@@ -630,6 +631,10 @@ def cmd_render(args: argparse.Namespace) -> int:
     if prefiltered is not None:
         payload["prefiltered"], line = prefiltered
         human = "\n".join([line, human])
+    if args.mode == "mis":
+        weight = renderer.control_weight() if settings.mis_control else 0.0
+        payload["settings"]["mis_control"] = {"on": settings.mis_control, "weight": weight}
+        human = "\n".join([f"MIS control: {'weight ' + format(weight, '.2f') if settings.mis_control else 'off'}", human])
     if args.mode == "sh":
         payload["settings"]["sh_table"], line = _sh_table_used(renderer)
         human = "\n".join([line, human])
@@ -928,7 +933,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--env-rotation", type=finite_float, default=0.0, help="degrees about +Y")
     p.add_argument("--light", default="0,0,1", help="direction towards the light, X,Y,Z (world)")
     p.add_argument("--samples", type=int_in(1, MAX_RENDER_SAMPLES), default=64,
-                   help=f"FIS samples per pixel (1..{MAX_RENDER_SAMPLES})")
+                   help=f"FIS and MIS samples per pixel (1..{MAX_RENDER_SAMPLES})")
+    p.add_argument("--mis-control", choices=["on", "off"], default="on",
+                   help="--mode mis: the prefiltered image as a control variate, unbiased, its weight chosen for the "
+                        "material and map (default on; off: plain MIS)")
     p.add_argument("--sh-order", type=int_in(1, 16, name="SH order"), default=5, help="bands of the SH mode (order² coefficients), 1..16")
     p.add_argument("--sh-window", choices=["none", "hanning", "lanczos"], default="none", help="against ringing")
     p.add_argument("--sh-table", type=sh_table, default=None, metavar="auto|SIZExLOG2",

@@ -149,6 +149,18 @@ def test_switch_lighting_modes(window, qtbot):
             offscreen = view.renderer.render(p.settings)
             view.doneCurrent()
             np.testing.assert_allclose(shown[::-1, :, :3], offscreen, atol=1e-5)
+        if mode == "mis":
+            # MIS draws with its control, weighed in the worker before the first step; the
+            # finished image, drawn in pieces of any β-weighted size, is the offscreen render's
+            assert view.renderer.control_weight_ready() and 0.0 < view.renderer.control_weight() <= 1.0
+            qtbot.waitUntil(lambda: view.image_complete, timeout=120000)
+            view.makeCurrent()
+            p = view._progressive
+            shown = np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)
+            offscreen = view.renderer.render(p.settings)
+            view.doneCurrent()
+            assert p.settings.mis_control
+            np.testing.assert_allclose(shown[::-1, :, :3] / p.samples, offscreen, atol=1e-4 * offscreen.max())
     assert not window.statusBar().currentMessage().startswith("building")
     # the display transform: gamma 1 shows linear values, darker than sRGB for mid-tones
     srgb = np.asarray(view.grabFramebuffer().convertToFormat(QImage.Format_RGB32).constBits()).copy()
