@@ -5,7 +5,9 @@
 
 The scene the window opens on (`main_window._default_scene`): Spot under the Venice sunset map,
 the default material (Lambertian + isotropic Lafortune, BRDFLab's Fig. 2), the object view's
-default camera and lighting (FIS, a set of 256 samples drawn progressively). The window's image
+default camera and lighting (FIS, a set of 256 samples drawn progressively; and MIS, which draws
+with the prefiltered image as its control variate, the window's and `render`'s default, next to
+plain MIS). The window's image
 after k samples drawn is reproduced offscreen with the class the window draws with (`Progressive`:
 a first step of one sample, then the sets' rows in the order it draws pieces in: a finished set of
 PREVIEW first, shown until the set of 256 is complete; the window's image equals this offscreen one,
@@ -82,10 +84,15 @@ def measure() -> dict:
     mask = luminance(truth[0] + truth[1]) > 0  # the object's pixels (the background is not drawn)
     a, b = (luminance(t)[mask] for t in truth)
     truth_own = weighted_pixel_error(a, 0.5 * (a + b), np.full(len(a), 1.0 / len(a)))  # (a − b) / 2: the pair's mean's
-    scene = {"progressive fis": {k: score(v, truth, mask) for k, v in progressive_images(renderer, fis).items()}}
-    for mode in ("fis", "mis"):
-        sets = {k: RenderSettings(mode=mode, width=w, height=h, samples=k, reference_view=False) for k in COUNTS}
-        scene[f"{mode} set of k"] = {k: score(independent_image(renderer, s, seed=1), truth, mask) for k, s in sets.items()}
+    mis = RenderSettings(mode="mis", width=w, height=h, samples=TARGET, reference_view=False)
+    scene = {f"progressive {s.mode}": {k: score(v, truth, mask) for k, v in progressive_images(renderer, s).items()}
+             for s in (fis, mis)}
+    for mode, control in (("fis", False), ("mis", True), ("mis", False)):
+        sets = {k: RenderSettings(mode=mode, width=w, height=h, samples=k, reference_view=False, mis_control=control)
+                for k in COUNTS}
+        name = f"{mode} set of k" + (" (plain)" if mode == "mis" and not control else "")
+        scene[name] = {k: score(independent_image(renderer, s, seed=1), truth, mask) for k, s in sets.items()}
+    weight = renderer.control_weight()
     print(f"scene: {int(mask.sum())} pixels; truth's own error {100 * truth_own:.2f} %")
     for name, row in scene.items():
         print(f"  {name:<16}" + "  ".join(f"{k}: {100 * e:.2f} %" for k, e in row.items()), flush=True)
@@ -98,7 +105,7 @@ def measure() -> dict:
     sphere = {k: pixel_relative_rmse(v, reference, inside) for k, v in progressive_images(renderer, sphere_settings).items()}
     print("  sphere vs quadrature, progressive fis: " + "  ".join(f"{k}: {100 * e:.2f} %" for k, e in sphere.items()))
     return {"size": SIZE, "target": TARGET, "truth_samples": TRUTH, "pixels": int(mask.sum()),
-            "truth_own_error": truth_own, "scene": scene, "sphere_vs_quadrature": sphere}
+            "truth_own_error": truth_own, "mis_control_weight": weight, "scene": scene, "sphere_vs_quadrature": sphere}
 
 
 if __name__ == "__main__":

@@ -38,11 +38,8 @@ vec3 env_sample(vec2 u, float rotation) {
     return vec3(c * m.x - s * m.z, m.y, s * m.x + c * m.z);  // env_uv's turn, undone
 }
 
-// the map texel that world direction d falls in
-ivec2 env_texel(vec3 d, float rotation) {
-    ivec2 size = textureSize(u_env_table, 0);
-    return clamp(ivec2(floor(env_uv(d, rotation) * vec2(size))), ivec2(0), size - 1);
-}
+// the texel of a lat-long grid of `size` texels that map coordinates uv (env_uv) fall in
+ivec2 latlong_texel(vec2 uv, ivec2 size) { return clamp(ivec2(floor(uv * vec2(size))), ivec2(0), size - 1); }
 
-// density per steradian of drawing world direction d
-float env_density(vec3 d, float rotation) { return texelFetch(u_env_table, env_texel(d, rotation), 0).g; }
+// the map texel that map coordinates uv fall in: its density per steradian is the table's .g
+ivec2 env_texel(vec2 uv) { return latlong_texel(uv, textureSize(u_env_table, 0)); }

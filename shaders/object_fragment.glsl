@@ -124,8 +124,7 @@ void main() {
     // horizon g is not 0: the map's samples reach there with weight 1 (the lobes' density taken
     // as 0 below it, as without the control, where those samples add nothing).
 #ifdef MIS_CONTROL
-    vec3 exact = u_cv_weight > 0.0 ? u_cv_weight * cv_prepare(to_world, n, wo) : vec3(0.0);
-    color = exact * float(u_sample_end - u_sample_begin);
+    color = u_cv_weight * cv_prepare(to_world, n, wo) * float(u_sample_end - u_sample_begin);
 #endif
     for (int i = u_sample_begin; i < u_sample_end; i++) {
         vec4 s = texelFetch(u_samples, ivec2(i % u_sample_row, i / u_sample_row), 0);
@@ -141,24 +140,31 @@ void main() {
         }
 #ifdef MIS_CONTROL
         bool above = wi.z > 0.0;
-        if (!above && (u_cv_weight <= 0.0 || !from_env)) continue;
-        float p_brdf = above ? (1.0 - u_env_fraction) * material_pdf(wi, wo) : 0.0;
+        if (!above && !from_env) continue;
+        vec2 uv = env_uv(d, u_env_rotation);  // once: the map's texel, its density and the control's texel
+        // below the horizon g is 0 but where a fitted lobe's kernels reach, and in a light's texel
+        // whose centre is above it
+        if (!above && CV_FITTED == 0 && !cv_light_at(uv)) continue;
+        float p_brdf = 0.0;
+        if (above) p_brdf = (1.0 - u_env_fraction) * material_pdf(wi, wo);
 #else
         if (wi.z <= 0.0) continue;
         float p_brdf = (1.0 - u_env_fraction) * material_pdf(wi, wo);
+        vec2 uv = env_uv(d, u_env_rotation);  // once: the map's texel and its density
 #endif
-        float p_env = u_env_fraction * env_density(d, u_env_rotation);
+        ivec2 texel = env_texel(uv);
+        float p_env = u_env_fraction * texelFetch(u_env_table, texel, 0).g;
         float p_own = from_env ? p_env : p_brdf;
         if (!(p_own > 0.0)) continue;
         float ratio = (from_env ? p_brdf : p_env) / p_own;
         float weight = 1.0 / (1.0 + ratio * ratio);  // p_own² / (p_env² + p_brdf²), overflow-free
 #ifdef MIS_CONTROL
-        vec3 value = u_cv_weight > 0.0 ? -u_cv_weight * cv_control(d, n, to_world, wo) : vec3(0.0);
-        if (above) value += material_eval(wi, wo) * wi.z * texelFetch(u_env, env_texel(d, u_env_rotation), 0).rgb;
+        vec3 value = vec3(0.0);
+        if (above) value = material_eval(wi, wo) * wi.z * texelFetch(u_env, texel, 0).rgb;
+        value -= u_cv_weight * cv_control(uv, d, n, to_world, wo);
         color += value * (weight / p_own);
 #else
-        vec3 radiance = texelFetch(u_env, env_texel(d, u_env_rotation), 0).rgb;
-        color += material_eval(wi, wo) * wi.z * radiance * (weight / p_own);
+        color += material_eval(wi, wo) * wi.z * texelFetch(u_env, texel, 0).rgb * (weight / p_own);
 #endif
     }
 #endif

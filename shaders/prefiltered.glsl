@@ -38,10 +38,10 @@ vec3 prefiltered_lights(mat3 to_world, vec3 wo) {
 }
 
 // lookup j of row `side` (0: the view cosine below wo's, 1: above) of lobe k's fitted mixture: its
-// world direction and stack layer, and its weight with the row's share of the blend (≤ 0: none).
-// Each lookup at ψ from n, away from the view, in the plane of incidence, turned by the pixel's
-// view angle less the row's (the lobe moves with the view)
-float mixture_lookup(int k, int side, int j, mat3 to_world, vec3 wo, out vec3 d, out float layer) {
+// world direction and stack layer, and its weight with the row's share of the blend (`whole`: at
+// full weight; ≤ 0: none). Each lookup at ψ from n, away from the view, in the plane of
+// incidence, turned by the pixel's view angle less the row's (the lobe moves with the view)
+float mixture_lookup(int k, int side, int j, mat3 to_world, vec3 wo, out vec3 d, out float layer, bool whole) {
     float x = clamp(wo.z, 0.0, 1.0) * float(PREF_COSINES - 1);
     int i0 = min(int(x), PREF_COSINES - 2);
     float f = x - float(i0);
@@ -51,7 +51,7 @@ float mixture_lookup(int k, int side, int j, mat3 to_world, vec3 wo, out vec3 d,
     float psi = e.x + theta - acos(max(float(i0 + side) / float(PREF_COSINES - 1), PREF_MIN_COS));
     d = to_world * vec3(-sin(psi) * toward, cos(psi));
     layer = e.y;
-    return (side == 0 ? 1.0 - f : f) * e.z;
+    return (whole ? 1.0 : side == 0 ? 1.0 - f : f) * e.z;
 }
 
 // a fitted lobe's prefiltered radiance: its lookups of the two view cosines around wo's, blended
@@ -61,7 +61,7 @@ vec3 mixture_light(int k, mat3 to_world, vec3 wo) {
         for (int j = 0; j < PREF_LOOKUPS; j++) {
             vec3 d;
             float layer;
-            float w = mixture_lookup(k, side, j, to_world, wo, d, layer);
+            float w = mixture_lookup(k, side, j, to_world, wo, d, layer, false);
             if (w > 0.0) light += w * texture(u_pref_stack, vec3(env_uv(d, u_pref_rotation), layer)).rgb;
         }
     }

@@ -118,3 +118,14 @@ def quick_study(tmp_path_factory):
             payload.write_text(run.stdout)
     out = work / "study"
     return out, json.loads(payload.read_text()), read_study(out)
+
+
+def shown_and_offscreen(view) -> tuple[np.ndarray, np.ndarray]:
+    """What the object view has accumulated, per sample (RGB, row 0 at the top), and the
+    offscreen render of the same settings in the same context."""
+    view.makeCurrent()
+    p = view._progressive
+    shown = np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)
+    offscreen = view.renderer.render(p.settings)
+    view.doneCurrent()
+    return shown[::-1, :, :3] / p.samples, offscreen

@@ -5,6 +5,7 @@ import os
 
 import numpy as np
 import pytest
+from conftest import shown_and_offscreen
 
 pytestmark = pytest.mark.skipif(
     not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") not in ("offscreen",),
@@ -143,24 +144,16 @@ def test_switch_lighting_modes(window, qtbot):
         if mode in ("point", "sh", "prefiltered"):
             # what the window accumulated equals an offscreen render in the same context
             # (regression: GL state left behind by Qt once summed hidden surfaces)
-            view.makeCurrent()
-            p = view._progressive
-            shown = np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)
-            offscreen = view.renderer.render(p.settings)
-            view.doneCurrent()
-            np.testing.assert_allclose(shown[::-1, :, :3], offscreen, atol=1e-5)
+            shown, offscreen = shown_and_offscreen(view)
+            np.testing.assert_allclose(shown, offscreen, atol=1e-5)
         if mode == "mis":
             # MIS draws with its control, weighed in the worker before the first step; the
             # finished image, drawn in pieces of any β-weighted size, is the offscreen render's
             assert view.renderer.control_weight_ready() and 0.0 < view.renderer.control_weight() <= 1.0
             qtbot.waitUntil(lambda: view.image_complete, timeout=120000)
-            view.makeCurrent()
-            p = view._progressive
-            shown = np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)
-            offscreen = view.renderer.render(p.settings)
-            view.doneCurrent()
-            assert p.settings.mis_control
-            np.testing.assert_allclose(shown[::-1, :, :3] / p.samples, offscreen, atol=1e-4 * offscreen.max())
+            assert view._progressive.settings.mis_control
+            shown, offscreen = shown_and_offscreen(view)
+            np.testing.assert_allclose(shown, offscreen, atol=1e-4 * offscreen.max())
     assert not window.statusBar().currentMessage().startswith("building")
     # the display transform: gamma 1 shows linear values, darker than sRGB for mid-tones
     srgb = np.asarray(view.grabFramebuffer().convertToFormat(QImage.Format_RGB32).constBits()).copy()

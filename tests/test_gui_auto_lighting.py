@@ -8,7 +8,7 @@ from html import escape
 import numpy as np
 import pytest
 
-from conftest import DATA, needs_shared
+from conftest import DATA, needs_shared, shown_and_offscreen
 from test_gui import open_and_wait, window  # noqa: F401  (the fixture)
 from test_gui_live import GapProbe
 
@@ -65,13 +65,9 @@ def test_auto_lighting_draws_the_cores_choice_and_follows_the_material(window, q
     # once finished, the window's image is the offscreen render of those settings (whose error
     # the choice predicts), however small the steps it was refined in
     qtbot.waitUntil(lambda: view.image_complete, timeout=120000)
-    view.makeCurrent()
-    p = view._progressive
-    shown = np.frombuffer(p.texture.read(), np.float32).reshape(p.settings.height, p.settings.width, 4)
-    offscreen = view.renderer.render(p.settings)
-    view.doneCurrent()
-    print(f"{p.steps} steps for {p.samples} samples")
-    np.testing.assert_allclose(shown[::-1, :, :3] / p.samples, offscreen, rtol=1e-3, atol=1e-5)
+    shown, offscreen = shown_and_offscreen(view)
+    print(f"{view._progressive.steps} steps for {view._progressive.samples} samples")
+    np.testing.assert_allclose(shown, offscreen, rtol=1e-3, atol=1e-5)
 
     # a tolerance nothing meets: the best predicted is drawn, and the window says so
     c.tolerance.setValue(c.tolerance.minimum())

@@ -29,7 +29,7 @@ import numpy as np
 
 from brdflab.errors import BRDFLabError
 from brdflab.lighting.auto_pilot import LUMINANCE, Pilot, make_pilot
-from brdflab.lighting.control_variate import FITTED_LOBES
+from brdflab.lighting.control_variate import frame_cost as control_frame_cost
 from brdflab.lighting.envmap import EnvironmentMap
 from brdflab.lighting.mip_pyramid import solid_angle_mips
 from brdflab.lighting.prefilter import LIGHTS, bright_lights, reduced
@@ -47,10 +47,8 @@ PREFILTERED_BOUND = 0.05  # issue 36: the split sum within 5 % per pixel, or the
 # venice: 10.3 → 15.4 ms per 256² frame, docs/bench/prefiltered.json)
 FRAME_COST_MS = {"prefiltered": lambda lights, fitted=0: 5.0 * (3.1 + 0.1125 * lights + 3.35 * fitted) / (3.1 + 0.1125 * LIGHTS),
                  "sh": lambda L: 0.28 * L**4, "fis": lambda n: 1.7 * n,
-                 # MIS draws its control (lighting/control_variate.py) at every sample: its frames cost 1.5–1.6× the
-                 # plain estimator's without a fitted lobe in it (the irradiance kernel and the lights), 3.1–3.3× with one
-                 # (16 lookups' kernels a sample; 128², 64 samples, city-night)
-                 "mis": lambda n, fitted=0: 2.6 * n * (1.55 + 1.65 * min(fitted, FITTED_LOBES))}
+                 # MIS draws its control at every sample (lighting/control_variate.frame_cost: 1.4–1.7× plain MIS)
+                 "mis": lambda n, fitted=0: 2.6 * n * control_frame_cost(fitted)}
 
 
 @dataclass(frozen=True)

@@ -298,7 +298,11 @@ def control_weight(source, proxy, env: EnvironmentMap, control, dist=None, pixel
     control's, their covariance over CONTROL_DRAWS independent draws of CONTROL_SAMPLES
     samples), each pixel weighted by its share of the view over its value squared (the
     per-pixel relative error Auto judges). 1 takes all of the variance the control explains
-    where it is close to the integrand; less where subtracting it adds its own."""
+    where it is close to the integrand; less where subtracting it adds its own. 0 where the
+    variance it takes, the share ρ² = Cov² / (Var(X) Var(Y)), does not pay for its frames' cost
+    (`control_variate.frame_cost`): (1 − ρ²) × cost ≥ 1, so plain MIS with as many more samples
+    would do as well (a measured slice against its proxy, ρ² ≈ 0.1 for 1.5× the cost)."""
+    from brdflab.lighting.control_variate import fitted_in_control, frame_cost
     from brdflab.lighting.env_sampling import environment_distribution
     from brdflab.lighting.sampling_sets import pixel_shifts
 
@@ -315,8 +319,11 @@ def control_weight(source, proxy, env: EnvironmentMap, control, dist=None, pixel
     scale = np.maximum(scale, 1e-2 * max(float(np.median(scale)), 1e-300))
     w = pixels.weight / scale**2
     cov = (w * ((x - x.mean(0)) * (y - y.mean(0))).sum(0)).sum()
-    var = (w * ((y - y.mean(0)) ** 2).sum(0)).sum()
-    return float(np.clip(cov / var, 0.0, 1.0)) if var > 0.0 else 0.0
+    var_x, var_y = ((w * ((v - v.mean(0)) ** 2).sum(0)).sum() for v in (x, y))
+    if not (var_x > 0.0 and var_y > 0.0):
+        return 0.0
+    explained = cov**2 / (var_x * var_y)
+    return float(np.clip(cov / var_y, 0.0, 1.0)) if (1.0 - explained) * frame_cost(fitted_in_control(proxy)) < 1.0 else 0.0
 
 
 _WEIGHTS: dict = {}  # weight_for's answers: (material, lit source, map) → β

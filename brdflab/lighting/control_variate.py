@@ -4,15 +4,17 @@ shaders/mis_control.glsl.
 A pixel is estimated as β P + MIS_N[f·cos·L − β g], where g is a function of the incoming
 direction whose integral over the sphere is P, exactly:
 - the irradiance kernel max(0, n·ω) × the diffuse shares' coefficient (albedo × share / π), and
-  for each lookup of a rough lobe's fitted mixture (`split_sum.mixture_lookups`, the first
-  FITTED_LOBES such lobes) its coefficient × its layer's kernel about the lookup's direction,
-  normalised over the sphere (`layer_kernels`) — all × the stack's dimmed map texel by texel;
-  their integrals are the stack's convolutions, read where the prefiltered mode reads them;
+  for each lookup of a rough lobe's fitted mixture at the view cosine nearest the pixel's
+  (`split_sum.mixture_lookups`, such lobes among the first FITTED_LOBES; the prefiltered mode blends
+  two, which cost twice the kernels a sample for the same variance) its coefficient × its layer's
+  kernel about the lookup's direction, normalised over the sphere (`layer_kernels`) — all × the
+  stack's dimmed map texel by texel; their integrals are the stack's convolutions, read at the
+  lookups' directions;
 - for each of the stack's lights (a bright texel's excess over the dimmed map), f·cos at the
   texel's centre × the excess inside that texel: its integral is the prefiltered mode's sum
   over its lights.
-So P is the prefiltered mode's image less its glossy and anisotropic lobes' taps (which, not
-close to their lobes sample by sample, added variance: docs/mis.md). The estimate is unbiased
+So P is close to the prefiltered mode's image, less its glossy and anisotropic lobes' taps
+(which, not close to their lobes sample by sample, added variance: docs/mis.md). The estimate is unbiased
 for any g with a known integral and any weight β fixed before the samples are drawn: below a
 pixel's horizon f·cos is 0 and g is not, and the map's half of the set reaches there with
 weight 1 (the lobes' density is taken as 0 below the horizon, in the shader as here). The one
@@ -21,7 +23,8 @@ read bilinearly between them), bounded in tests/test_mis_control.py.
 
 β is chosen per material and map by `auto_twins.control_weight` (the least-squares control
 coefficient over pilot pixels): 1 where the split sum is close to the lobe (a Lambertian, a
-rough fitted lobe), less where it is not (a glossy lobe, a measured table against its proxy).
+rough fitted lobe), less where it is not (a glossy lobe, a measured table against its proxy),
+and 0 (plain MIS) where what it takes from the variance does not pay for its cost (`frame_cost`).
 """
 
 from __future__ import annotations
@@ -36,9 +39,21 @@ from brdflab.lighting.prefilter import ALPHAS, KERNEL_FUNCTIONS, KERNELS, Prefil
 from brdflab.lighting.split_sum import albedo_at, material_split, mixture_lookups, sample_latlong
 from brdflab.material.analytic import AnalyticMaterial
 
-FITTED_LOBES = 4  # fitted lobes in the control at most (the shader holds their 2 × 8 lookups per pixel)
+FITTED_LOBES = 4  # the lobes whose fitted lookups may be in the control (the shader holds 8 a lobe per pixel)
 DIMMED_LAYER = 1  # the stack's first Beckmann layer, α = 0: the dimmed map itself
 FAMILIES = ("cosine", *KERNELS)  # a layer's kernel, by its index in the shader's u_cv_layer
+
+
+def frame_cost(fitted: int) -> float:
+    """A MIS frame's cost with the control over plain MIS's (llvmpipe, 128², 64 samples, three
+    maps): 1.37–1.41 without a fitted lobe in g (the irradiance kernel and the lights), 1.51–1.69
+    with one (its eight lookups' kernels at every sample)."""
+    return 1.4 + 0.2 * min(fitted, FITTED_LOBES)
+
+
+def fitted_in_control(material: AnalyticMaterial) -> int:
+    """How many of `material`'s lobes have their fitted lookups in g."""
+    return sum(split.mixture is not None for split in material_split(material)[:FITTED_LOBES])
 
 
 def layer_families() -> list[tuple[int, float]]:
@@ -118,13 +133,11 @@ def fitted_lookups(material: AnalyticMaterial, frames) -> tuple[np.ndarray, np.n
     wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)
     diffuse = np.zeros((pixels, 3))
     layers, directions, coefficients = [np.zeros((pixels, 0), int)], [np.zeros((pixels, 0, 3))], [np.zeros((pixels, 0, 3))]
-    fitted = 0
-    for split, rgb in zip(material_split(material), material.rgb_scales()):
+    for k, (split, rgb) in enumerate(zip(material_split(material), material.rgb_scales())):
         scale = albedo_at(split.albedo, wo) * rgb
         diffuse += scale * split.diffuse_share / np.pi
-        if split.mixture is not None and fitted < FITTED_LOBES:
-            fitted += 1
-            layer, d, weight = mixture_lookups(split.mixture, n, t, b, wo)
+        if split.mixture is not None and k < FITTED_LOBES:
+            layer, d, weight = mixture_lookups(split.mixture, n, t, b, wo, nearest=True)
             layers.append(layer)
             directions.append(d)
             coefficients.append(scale[:, None] * weight[..., None])
@@ -159,12 +172,20 @@ def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers,
     weight = control.diffuse[:, None] * np.maximum(np.einsum("psc,pc->ps", world, n), 0.0)[..., None]
     if control.layers.shape[1]:
         family, alpha, inverse = np.moveaxis(layer_kernels()[control.layers], -1, 0)  # each (pixels, M)
-        cosines = np.einsum("psc,pmc->psm", world, control.directions)
-        values = np.zeros_like(cosines)
-        for kind in np.unique(family[inverse > 0.0]):  # one pass per kernel family, every α at once
+        inverse = np.where((control.coefficients != 0.0).any(-1), inverse, 0.0)  # a row's empty lookups: none
+        cosines = np.matmul(world, np.swapaxes(control.directions, 1, 2))  # (pixels, samples, M); einsum took 2×
+        kinds = np.unique(family[inverse > 0.0])
+        values = np.zeros_like(cosines) if len(kinds) != 1 else None
+        for kind in kinds:  # one pass per kernel family, every α at once
+            with np.errstate(divide="ignore", invalid="ignore"):  # another family's α (masked below) may be 0
+                kernel = kernel_values(int(kind), alpha[:, None], cosines) * inverse[:, None]
             at = ((family == kind) & (inverse > 0.0))[:, None]
-            values += np.where(at, kernel_values(int(kind), alpha[:, None], cosines) * inverse[:, None], 0.0)
-        weight += np.einsum("psm,pmc->psc", values, control.coefficients)
+            if values is None:  # one family (a material's fitted lobes share it, as a rule)
+                values = kernel if at.all() else np.where(at, kernel, 0.0)
+            else:
+                values += np.where(at, kernel, 0.0)
+        values = np.zeros_like(cosines) if values is None else values
+        weight += np.matmul(values, control.coefficients)
     g = weight * stack.layers[DIMMED_LAYER][rows, cols].astype(float)
     light = excess[rows, cols, 3].astype(int)
     hit = light >= 0
@@ -183,8 +204,8 @@ def control_layers(material: AnalyticMaterial) -> set[int]:
     """The stack layers the control of `material` reads: the irradiance, the dimmed map and its
     fitted lobes' layers."""
     wanted = {0, DIMMED_LAYER}
-    fitted = [split for split in material_split(material) if split.mixture is not None][:FITTED_LOBES]
-    return wanted.union(*(split.stack_layers() for split in fitted))
+    return wanted.union(*(split.stack_layers() for split in material_split(material)[:FITTED_LOBES]
+                          if split.mixture is not None))
 
 
 @dataclass(frozen=True)

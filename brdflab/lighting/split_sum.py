@@ -170,11 +170,12 @@ def sample_latlong(layer: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 def mixture_lookups(mixture: np.ndarray, n: np.ndarray, t: np.ndarray, b: np.ndarray,
-                    wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    wo: np.ndarray, nearest: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A fitted lobe's lookups at each pixel: stack layers (pixels, 2·LOOKUPS), world directions
     (pixels, 2·LOOKUPS, 3) and weights: the lookups of the two view cosines around each pixel's,
     each weighted by its row's share of the linear blend and turned by the pixel's view angle
-    less the row's (the lobe moves with the view between rows; the shader's loop)."""
+    less the row's (the lobe moves with the view between rows; the shader's loop). `nearest`:
+    the nearer row's LOOKUPS alone, at full weight (MIS's control: half the kernels a sample)."""
     x = np.clip(wo[:, 2], 0.0, 1.0) * (COSINES - 1)
     theta = np.arccos(np.clip(wo[:, 2], 0.0, 1.0))
     i0 = np.minimum(x.astype(int), COSINES - 2)
@@ -182,7 +183,8 @@ def mixture_lookups(mixture: np.ndarray, n: np.ndarray, t: np.ndarray, b: np.nda
     toward = np.where(tangent > 1e-7, wo[:, :2] / np.maximum(tangent, 1e-300), np.array([1.0, 0.0]))
     toward_view = toward[:, :1] * t + toward[:, 1:2] * b
     layers, directions, weights = [], [], []
-    for row, share in ((i0, 1.0 - (x - i0)), (i0 + 1, x - i0)):
+    rows = [(i0 + (x - i0 >= 0.5), np.ones_like(x))] if nearest else [(i0, 1.0 - (x - i0)), (i0 + 1, x - i0)]
+    for row, share in rows:
         psi, layer, weight = np.moveaxis(mixture[row], -1, 0)  # each (pixels, LOOKUPS)
         psi = psi + (theta - ROW_ANGLES[row])[:, None]
         directions.append(mixture_directions(psi, n[:, None], toward_view[:, None]))

@@ -249,6 +249,13 @@ class ObjectRenderer:
                                          function(*args))
         return self._control[3]
 
+    def _control_lobes(self) -> tuple[int, ...] | None:
+        """The lobes whose fitted lookups MIS's control draws (those among the first FITTED_LOBES
+        drawn by fitted lookups), or None where its weight is 0: plain MIS, at plain MIS's cost."""
+        if self.control_weight() <= 0.0:
+            return None
+        return tuple(lobe for lobe in self.prefiltered.fitted_lobes(self.material) if lobe[0] < FITTED_LOBES)
+
     # --- spherical harmonics ------------------------------------------------------------------
     def _release_sh(self) -> None:
         if self._sh_state is not None:
@@ -429,9 +436,10 @@ class ObjectRenderer:
             self.sh_shadows or self.sh_variant != "dynamic")
 
     def _program(self, models: tuple[str, ...], mode: str, reference: bool, measured: bool = False,
-                 n_channels: int = 3, control: bool = False) -> moderngl.Program:
+                 n_channels: int = 3, control: tuple[int, ...] | None = None) -> moderngl.Program:
+        """`control`: MIS's control is drawn, with the fitted lookups of these lobes ((index, kernel family) each)."""
         shadowed = self._shadowed(mode, reference)
-        control = control and mode == "mis"
+        control = control if mode == "mis" else None
         key = (models, n_channels, mode, reference, measured, self.sh_order if mode == "sh" else 0, shadowed,
                self.sh_variant if shadowed else "", control)
         if key not in self._programs:
@@ -450,15 +458,19 @@ class ObjectRenderer:
                     elif self.sh_variant == "fixed-view":
                         defines += "#define SH_FIXED_VIEW\n"
                 material += shader_source("sh.glsl")
-            if mode == "prefiltered" or control:
+            if mode == "prefiltered" or control is not None:
                 defines += (f"#define PREF_TAPS {TAPS}\n#define PREF_PHIS {ALBEDO_PHIS}\n"
                             f"#define PREF_COSINES {MIXTURE_COSINES}\n#define PREF_LOOKUPS {LOOKUPS}\n"
                             f"#define PREF_MIN_COS {MIXTURE_MIN_COS!r}\n")
                 material += shader_source("prefiltered.glsl")
-            if control:
-                fitted = min(len(models), FITTED_LOBES)
+            if control is not None:
+                lobes = [k for k, _ in control]
+                slots = [lobes.index(k) if k in lobes else -1 for k in range(len(models))]
+                families = [family for _, family in control] or [0]
                 defines += (f"#define MIS_CONTROL\n#define PREF_LAYERS {len(layer_kernels())}\n"
-                            f"#define CV_FITTED {fitted}\n#define CV_LOOKUPS {2 * LOOKUPS * fitted}\n")
+                            f"#define CV_FITTED {len(control)}\n#define CV_LOOKUPS {LOOKUPS * max(len(control), 1)}\n"
+                            f"#define CV_SLOTS int[{len(models)}]({', '.join(map(str, slots))})\n"
+                            f"#define CV_FAMILIES int[{len(families)}]({', '.join(map(str, families))})\n")
                 material += shader_source("mis_control.glsl")
             self._programs[key] = self.ctx.program(
                 vertex_shader=GLSL_VERSION + defines + shader_source("object_vertex.glsl"),
@@ -487,7 +499,7 @@ class ObjectRenderer:
             raise BRDFLabError(f"unknown lighting mode {settings.mode!r} ({', '.join(MODES)})")
         reference = settings.reference_view or self.mesh is None
         models = models_of(self.material)
-        control = settings.mode == "mis" and settings.mis_control
+        control = self._control_lobes() if settings.mode == "mis" and settings.mis_control else None
         prog = self._program(models, settings.mode, reference, self.measured, self.material.n_channels, control)
         set_uniforms(prog, self._material_terms())
         if self.measured:
@@ -521,7 +533,7 @@ class ObjectRenderer:
             _set(prog, "u_env_marginal", 6)
             _set(prog, "u_env_table", 7)
             _set(prog, "u_env_fraction", float(self._env_fraction))
-            if control:
+            if control is not None:
                 self.prefiltered.bind(prog, self.environment, self.material, settings.env_rotation)
                 self.prefiltered.bind_control(prog, self.environment)
                 _set(prog, "u_cv_weight", self.control_weight())

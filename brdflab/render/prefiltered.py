@@ -73,13 +73,13 @@ class PrefilteredLighting:
     def _albedo_texture(self, material: AnalyticMaterial) -> tuple[moderngl.Texture, moderngl.Texture, dict]:
         """The material's albedo table, its fitted lobes' lookups (`view_mixture`; zero rows for
         the others) and the per-lobe uniforms."""
-        from brdflab.lighting.split_sum import TAPS, material_split
+        from brdflab.lighting.split_sum import TAPS
         from brdflab.lighting.view_mixture import COSINES, LOOKUPS
 
         key = self.material_key(material)
         if self._albedo is None or self._albedo[0] != key:
             self.release_albedo()
-            splits = self._splits[1] if self._splits is not None and self._splits[0] == key else material_split(material)
+            splits = self._material_splits(material)
             table = np.ascontiguousarray(np.concatenate([s.albedo for s in splits]), np.float32)  # (lobes · φo, cos θo, 3)
             tex = self.ctx.texture((table.shape[1], table.shape[0]), 3, table.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # interpolated in the shader
@@ -97,6 +97,22 @@ class PrefilteredLighting:
             }
             self._albedo = (key, tex, mixtures, uniforms)
         return self._albedo[1:]
+
+    def _material_splits(self, material: AnalyticMaterial) -> list:
+        """`material_split`, or the splits made elsewhere for this material (`remember_splits`)."""
+        from brdflab.lighting.split_sum import material_split
+
+        key = self.material_key(material)
+        return self._splits[1] if self._splits is not None and self._splits[0] == key else material_split(material)
+
+    def fitted_lobes(self, material: AnalyticMaterial) -> tuple[tuple[int, int], ...]:
+        """(lobe index, kernel family in `control_variate.FAMILIES`) of each lobe of `material`
+        drawn by fitted lookups (`view_mixture`)."""
+        from brdflab.lighting.control_variate import layer_families
+
+        families = layer_families()
+        return tuple((k, families[int(split.mixture[..., 1].max())][0])
+                     for k, split in enumerate(self._material_splits(material)) if split.mixture is not None)
 
     def bind(self, program: moderngl.Program, env: EnvironmentMap | None, material: AnalyticMaterial,
              rotation_degrees: float) -> None:
