@@ -56,7 +56,7 @@ def test_what_the_control_adds_back_is_its_integral(map_name):
         total = np.zeros_like(terms.exact)
         for i in range(0, len(d), 8192):
             world = np.broadcast_to(d[i:i + 8192], (len(frames[0]), *d[i:i + 8192].shape))
-            total += (control_values(terms, control.stack, control.excess, material, frames, world)
+            total += (control_values(terms, control.stack, control.excess, frames, world)
                       * solid[i:i + 8192, None]).sum(1)
         assert np.abs(total - terms.exact).max() <= 0.006 * np.abs(terms.exact).max(), map_name
 

@@ -284,7 +284,7 @@ def mis_parts(source, proxy, env: EnvironmentMap, dist, frames, count: int, shif
     if control is None:
         return plain, None, None
     terms = pixel_control(proxy, control.stack, frames, lit=source)
-    g = control_values(terms, control.stack, control.excess, source, frames, world)
+    g = control_values(terms, control.stack, control.excess, frames, world)
     return plain, (g * weight[..., None]).sum(axis=1) / len(data), terms.exact
 
 

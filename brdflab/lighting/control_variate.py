@@ -123,6 +123,7 @@ class PixelControl:
     layers: np.ndarray
     directions: np.ndarray
     coefficients: np.ndarray
+    lights: np.ndarray  # (pixels, lights, 3): f·cos at each of the stack's lights (0 below the horizon)
 
 
 def fitted_lookups(material: AnalyticMaterial, frames) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -147,26 +148,32 @@ def fitted_lookups(material: AnalyticMaterial, frames) -> tuple[np.ndarray, np.n
 def pixel_control(material: AnalyticMaterial, stack: PrefilteredStack | StackLayers, frames, lit=None) -> PixelControl:
     """The control at the pixels (`fitted_lookups`), with its integral: the irradiance and each
     lookup's layer read from the stack as the prefiltered mode reads them, and the stack's
-    lights evaluated with `lit` (the material itself unless given: a measured source)."""
-    from brdflab.lighting.reference_view import by_texel_centres
-
+    lights evaluated with `lit` (the material itself unless given: a measured source), once per
+    pixel and light (a sample in a light's texel reads its pixel's value: under a city's lamps
+    most of the map's half of the samples are)."""
     n, t, b = frames
     wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)
     diffuse, layers, directions, coefficients = fitted_lookups(material, frames)
-    exact = diffuse * sample_latlong(stack.irradiance(), n)
-    exact += by_texel_centres(material if lit is None else lit, stack.light_directions.astype(float),
-                              stack.light_power.astype(float), (t, b, n), wo)
+    centres = stack.light_directions.astype(float)
+    local = np.stack([centres @ t.T, centres @ b.T, centres @ n.T], -1).transpose(1, 0, 2)  # (pixels, lights, 3)
+    lights = np.zeros(local.shape)
+    seen = local[..., 2] > 0.0
+    if seen.any():
+        pixel, light = np.nonzero(seen)
+        f = np.asarray((material if lit is None else lit).evaluate(local[seen], wo[pixel]), float)
+        f = f[:, :3] if f.shape[-1] >= 3 else np.repeat(f[:, :1], 3, -1)
+        lights[seen] = f * local[seen][:, 2:]
+    exact = diffuse * sample_latlong(stack.irradiance(), n) + np.einsum("plc,lc->pc", lights, stack.light_power.astype(float))
     for k in np.unique(layers):
         at = np.where((layers == k)[..., None], coefficients, 0.0)
         exact += (at * sample_latlong(stack.layers[k], directions)).sum(1)
-    return PixelControl(exact, diffuse, layers, directions, coefficients)
+    return PixelControl(exact, diffuse, layers, directions, coefficients, lights)
 
 
-def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers, excess: np.ndarray, lit, frames,
+def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers, excess: np.ndarray, frames,
                    world: np.ndarray) -> np.ndarray:
     """g (pixels, samples, 3) at world directions `world` (pixels, samples, 3): the kernels
-    × the dimmed map texel by texel, plus a light texel's f·cos at its centre × its excess
-    (`lit`: what the renderer evaluates there, the material or a measured table)."""
+    × the dimmed map texel by texel, plus a light texel's f·cos at its centre × its excess."""
     n, t, b = frames
     rows, cols = texel_of(world, *excess.shape[:2])
     weight = control.diffuse[:, None] * np.maximum(np.einsum("psc,pc->ps", world, n), 0.0)[..., None]
@@ -191,12 +198,7 @@ def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers,
     hit = light >= 0
     if hit.any():
         pixel = np.broadcast_to(np.arange(len(n))[:, None], light.shape)[hit]
-        centre = stack.light_directions[light[hit]].astype(float)
-        local = np.stack([(centre * t[pixel]).sum(-1), (centre * b[pixel]).sum(-1), (centre * n[pixel]).sum(-1)], -1)
-        wo = np.stack([t[pixel, 2], b[pixel, 2], n[pixel, 2]], -1)
-        f = np.asarray(lit.evaluate(local, wo), float)
-        f = f[:, :3] if f.shape[-1] >= 3 else np.repeat(f[:, :1], 3, -1)
-        g[hit] += np.where(local[:, 2:] > 0.0, f * local[:, 2:], 0.0) * excess[rows[hit], cols[hit], :3]
+        g[hit] += control.lights[pixel, light[hit]] * excess[rows[hit], cols[hit], :3]
     return g
 
 
