@@ -6,7 +6,7 @@ direction whose integral over the sphere is P, exactly:
 - the irradiance kernel max(0, n·ω) × the diffuse shares' coefficient (albedo × share / π), and
   for each lookup of a rough lobe's fitted mixture at the view cosine nearest the pixel's
   (`split_sum.mixture_lookups`, such lobes among the first FITTED_LOBES; the prefiltered mode blends
-  two, which cost twice the kernels a sample for the same variance) its coefficient × its layer's
+  two, twice the kernels a sample for a few hundredths of a point of error) its coefficient × its layer's
   kernel about the lookup's direction, normalised over the sphere (`layer_kernels`) — all × the
   stack's dimmed map texel by texel; their integrals are the stack's convolutions, read at the
   lookups' directions;
