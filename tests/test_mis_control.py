@@ -125,3 +125,14 @@ def test_render_says_the_control_and_its_weight(tmp_path, capsys):
     assert main(["render", "example:fig2", "--mode", "mis", "--view", "reference", "--size", "8,8", "--samples", "4",
                  "--out", str(tmp_path / "x.png")]) == 0
     assert capsys.readouterr().out.startswith("MIS control: weight ")
+
+
+def test_mis_without_a_map_says_so(renderer):
+    """MIS asks for its control's weight before it draws: without a map that is the renderer's
+    one clear error, not a failure inside the weight's pilot."""
+    from brdflab.errors import BRDFLabError
+
+    fresh = ObjectRenderer(renderer.ctx)
+    fresh.set_source(lobe("Lambertian"))
+    with pytest.raises(BRDFLabError, match="no environment map"):
+        fresh.render(RenderSettings("mis", 8, 8, samples=4))

@@ -499,6 +499,8 @@ class ObjectRenderer:
             raise BRDFLabError(f"unknown lighting mode {settings.mode!r} ({', '.join(MODES)})")
         reference = settings.reference_view or self.mesh is None
         models = models_of(self.material)
+        if settings.mode in SAMPLED_MODES and self.env_texture is None:
+            raise BRDFLabError("no environment map for the environment lighting mode")
         control = self._control_lobes() if settings.mode == "mis" and settings.mis_control else None
         prog = self._program(models, settings.mode, reference, self.measured, self.material.n_channels, control)
         set_uniforms(prog, self._material_terms())
@@ -509,8 +511,6 @@ class ObjectRenderer:
         _set(prog, "u_light_direction", tuple(float(x) for x in settings.light))
         _set(prog, "u_light_color", tuple(float(x) for x in settings.light_color))
         if settings.mode in SAMPLED_MODES:
-            if self.env_texture is None:
-                raise BRDFLabError("no environment map for the environment lighting mode")
             self.env_texture.use(0)
             samples_texture.use(1)
             _set(prog, "u_env", 0)
