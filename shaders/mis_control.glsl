@@ -20,7 +20,9 @@ vec3 cv_direction[CV_LOOKUPS];
 vec2 cv_shape[CV_LOOKUPS];  // (α², 1 / ∫K); 0: no lookup
 vec3 cv_coefficient[CV_LOOKUPS];
 
-// a fitted lookup's kernel over its integral at cosine c to its direction (prefilter.specular_kernel)
+// a fitted lookup's kernel over its integral at cosine c to its direction (prefilter.specular_kernel:
+// common.glsl's beckmann_d and ggx_d of an isotropic half vector, written in cos²θh to spare the
+// sample loop their square roots)
 float cv_kernel(int family, vec2 shape, float c) {
     float h2 = 0.5 * (1.0 + c);  // cos²θh
     float d = h2 * (shape.x - 1.0) + 1.0;

@@ -34,9 +34,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from brdflab.lighting.envmap import texel_of
-from brdflab.lighting.prefilter import ALPHAS, KERNEL_FUNCTIONS, KERNELS, PrefilteredStack, StackLayers, phong_exponent
+from brdflab.lighting.envmap import band_solid_angle, texel_of
+from brdflab.lighting.prefilter import ALPHAS, KERNELS, PrefilteredStack, StackLayers
 from brdflab.lighting.split_sum import albedo_at, material_split, mixture_lookups, sample_latlong
+from brdflab.lighting.view_mixture import kernel_values as mixture_kernel_values
 from brdflab.material.analytic import AnalyticMaterial
 
 FITTED_LOBES = 4  # the lobes whose fitted lookups may be in the control (the shader holds 8 a lobe per pixel)
@@ -64,16 +65,13 @@ def layer_families() -> list[tuple[int, float]]:
     return out
 
 
-def kernel_values(family: int, alpha: float, c: np.ndarray) -> np.ndarray:
+def kernel_values(family: int, alpha, c: np.ndarray) -> np.ndarray:
     """A stack layer's kernel at cosines c to its centre, unnormalised (the stack's own:
-    `prefilter.cosine_kernel`, `specular_kernel`)."""
+    `prefilter.cosine_kernel`, and `view_mixture.kernel_values`' of the others; α may be an
+    array, one per cosine)."""
     c = np.asarray(c, float)
     name = FAMILIES[family]
-    if name == "cosine":
-        return np.maximum(c, 0.0)
-    if name == "phong":
-        return np.where(c > 0.0, np.maximum(c, 1e-30) ** (phong_exponent(alpha) + 1.0), 0.0)
-    return KERNEL_FUNCTIONS[name](np.sqrt(0.5 * (1.0 + c)), alpha) * np.maximum(c, 0.0)
+    return np.maximum(c, 0.0) if name == "cosine" else mixture_kernel_values(name, alpha, c)
 
 
 @lru_cache(maxsize=1)
@@ -99,15 +97,13 @@ def layer_kernels() -> np.ndarray:
 def excess_radiance(stack: PrefilteredStack | StackLayers) -> np.ndarray:
     """(H, W, 4) at the stack's texels: each light's excess radiance (its power / its texel's
     solid angle) and its index among the stack's lights; 0 and −1 elsewhere."""
-    from brdflab.lighting.envmap import EnvironmentMap
-
     h, w = stack.irradiance().shape[:2]
     out = np.zeros((h, w, 4))
     out[..., 3] = -1.0
     if len(stack.lights):
         rows, cols = texel_of(stack.light_directions.astype(float), h, w)
-        _, solid = EnvironmentMap(np.zeros((h, w, 3), np.float32), "grid").texel_directions()
-        out[rows, cols, :3] = stack.light_power.astype(float) / solid[rows, 0][:, None]
+        solid = band_solid_angle(rows / h, (rows + 1) / h, w)
+        out[rows, cols, :3] = stack.light_power.astype(float) / solid[:, None]
         out[rows, cols, 3] = np.arange(len(stack.lights))
     return out
 
@@ -151,18 +147,15 @@ def pixel_control(material: AnalyticMaterial, stack: PrefilteredStack | StackLay
     lights evaluated with `lit` (the material itself unless given: a measured source), once per
     pixel and light (a sample in a light's texel reads its pixel's value: under a city's lamps
     most of the map's half of the samples are)."""
+    from brdflab.lighting.reference_view import texel_f_cos
+
     n, t, b = frames
     wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)
     diffuse, layers, directions, coefficients = fitted_lookups(material, frames)
     centres = stack.light_directions.astype(float)
-    local = np.stack([centres @ t.T, centres @ b.T, centres @ n.T], -1).transpose(1, 0, 2)  # (pixels, lights, 3)
-    lights = np.zeros(local.shape)
-    seen = local[..., 2] > 0.0
-    if seen.any():
-        pixel, light = np.nonzero(seen)
-        f = np.asarray((material if lit is None else lit).evaluate(local[seen], wo[pixel]), float)
-        f = f[:, :3] if f.shape[-1] >= 3 else np.repeat(f[:, :1], 3, -1)
-        lights[seen] = f * local[seen][:, 2:]
+    light, pixel, f, cosine = texel_f_cos(material if lit is None else lit, centres, (t, b, n), wo)
+    lights = np.zeros((len(n), len(centres), 3))
+    lights[pixel, light] = f * cosine[:, None]
     exact = diffuse * sample_latlong(stack.irradiance(), n) + np.einsum("plc,lc->pc", lights, stack.light_power.astype(float))
     for k in np.unique(layers):
         at = np.where((layers == k)[..., None], coefficients, 0.0)
@@ -181,17 +174,11 @@ def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers,
         family, alpha, inverse = np.moveaxis(layer_kernels()[control.layers], -1, 0)  # each (pixels, M)
         inverse = np.where((control.coefficients != 0.0).any(-1), inverse, 0.0)  # a row's empty lookups: none
         cosines = np.matmul(world, np.swapaxes(control.directions, 1, 2))  # (pixels, samples, M); einsum took 2×
-        kinds = np.unique(family[inverse > 0.0])
-        values = np.zeros_like(cosines) if len(kinds) != 1 else None
-        for kind in kinds:  # one pass per kernel family, every α at once
+        values = np.zeros_like(cosines)
+        for kind in np.unique(family[inverse > 0.0]):  # one pass per kernel family, every α at once
             with np.errstate(divide="ignore", invalid="ignore"):  # another family's α (masked below) may be 0
                 kernel = kernel_values(int(kind), alpha[:, None], cosines) * inverse[:, None]
-            at = ((family == kind) & (inverse > 0.0))[:, None]
-            if values is None:  # one family (a material's fitted lobes share it, as a rule)
-                values = kernel if at.all() else np.where(at, kernel, 0.0)
-            else:
-                values += np.where(at, kernel, 0.0)
-        values = np.zeros_like(cosines) if values is None else values
+            values += np.where(((family == kind) & (inverse > 0.0))[:, None], kernel, 0.0)
         weight += np.matmul(values, control.coefficients)
     g = weight * stack.layers[DIMMED_LAYER][rows, cols].astype(float)
     light = excess[rows, cols, 3].astype(int)

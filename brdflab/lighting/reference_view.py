@@ -78,12 +78,13 @@ def environment_image(source, env: EnvironmentMap, width: int, height: int, chun
     return out
 
 
-def by_texel_centres(source, d: np.ndarray, weight: np.ndarray, frame: tuple, wo: np.ndarray,
-                      keep: np.ndarray | None = None) -> np.ndarray:
-    """Σ over texels of f(ωt, wo) max(0, n·ωt) · radiance·solid angle, per pixel (pixels, 3):
-    texel directions d (texels, 3), weight (texels, 3), the pixels' frames (t, b, n) and views
-    wo (pixels, 3); `keep` (texels, pixels) leaves texels out. Only the pairs where the texel
-    is above the pixel's horizon are evaluated (about half of them: the rest add nothing)."""
+def texel_f_cos(source, d: np.ndarray, frame: tuple, wo: np.ndarray,
+                keep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """f(ωt, wo) (RGB) and max(0, n·ωt) at each (texel, pixel) pair whose texel is above the
+    pixel's horizon: (texel indices, pixel indices, f (pairs, 3), cosines (pairs,)); texel
+    directions d (texels, 3), the pixels' frames (t, b, n) and views wo (pixels, 3); `keep`
+    (texels, pixels) leaves pairs out. Only those pairs are evaluated (about half: the rest add
+    nothing)."""
     t, b, n = frame
     wi = np.stack([d @ t.T, d @ b.T, d @ n.T], axis=-1)  # (texels, pixels, 3)
     seen = wi[..., 2] > 0.0
@@ -91,9 +92,16 @@ def by_texel_centres(source, d: np.ndarray, weight: np.ndarray, frame: tuple, wo
         seen &= keep.astype(bool)
     texel, pixel = np.nonzero(seen)
     if not len(pixel):  # no texel above any pixel's horizon (a few pixels facing away from a lamp)
-        return np.zeros((len(wo), 3))
-    f = _rgb(source.evaluate(wi[texel, pixel], wo[pixel]), (len(pixel),))
-    g = f * (wi[texel, pixel, 2][:, None] * weight[texel])
+        return texel, pixel, np.zeros((0, 3)), np.zeros(0)
+    return texel, pixel, _rgb(source.evaluate(wi[texel, pixel], wo[pixel]), (len(pixel),)), wi[texel, pixel, 2]
+
+
+def by_texel_centres(source, d: np.ndarray, weight: np.ndarray, frame: tuple, wo: np.ndarray,
+                      keep: np.ndarray | None = None) -> np.ndarray:
+    """Σ over texels of f(ωt, wo) max(0, n·ωt) · radiance·solid angle, per pixel (pixels, 3):
+    weight (texels, 3), the rest as `texel_f_cos`."""
+    texel, pixel, f, cosine = texel_f_cos(source, d, frame, wo, keep)
+    g = f * (cosine[:, None] * weight[texel])
     return np.stack([np.bincount(pixel, g[:, c], minlength=len(wo)) for c in range(3)], axis=-1)
 
 

@@ -242,11 +242,19 @@ class ObjectRenderer:
         self._control = (material_key, lit, env, float(weight))
 
     def control_weight(self) -> float:
-        """The control's weight β for this material and map: the remembered one, else computed here."""
+        """The control's weight β for this material and map: the remembered one, else computed
+        here from the map's whole stack, which the draw binds (a map met for the first time has
+        its stack built once, not its control's layers first)."""
         if not self.control_weight_ready():
-            function, args = self.control_weight_job()
-            self.remember_control_weight(self.prefiltered.material_key(self.material), self.lit_source(), self.environment,
-                                         function(*args))
+            from brdflab.lighting.auto_twins import weight_for
+            from brdflab.lighting.control_variate import MapControl, excess_radiance
+            from brdflab.lighting.prefilter import prefiltered_stack
+
+            stack = prefiltered_stack(self.environment)
+            weight = weight_for(self.lit_source(), self.material, self.environment,
+                                MapControl(stack, excess_radiance(stack)))
+            self.remember_control_weight(self.prefiltered.material_key(self.material), self.lit_source(),
+                                         self.environment, weight)
         return self._control[3]
 
     def _control_lobes(self) -> tuple[int, ...] | None:
