@@ -201,3 +201,27 @@ def test_twins_shaded_in_pieces_equal_the_whole():
     assert len(pieces) > 2
     (stacked,) = side_by_side_pieces([pieces])
     np.testing.assert_array_equal(stacked, whole)
+
+
+@pytest.mark.parametrize("map_name", ["moonlit-night", "studio-rim-light"])
+def test_the_last_rung_predicted_from_its_quarter_is_not_below_the_renders(renderer, map_name):
+    """MIS at 1,024 samples is predicted from the 256-sample draws (`quadrupled_error`), not
+    drawn: on held-out maps where 256 samples are not enough, Auto picks it and its prediction
+    is at least the renderer's error (the RMS over six independent images, against the
+    subdivided quadrature) and within 3× of it."""
+    from brdflab.lighting.auto import choose_lighting
+    from brdflab.lighting.synthetic_maps import catalogue
+
+    env = next(spec for spec in catalogue() if spec.name == map_name).build(128, 64)
+    mat = material(Lobe.create("Ward", [0.8, 0.7, 0.6], ax=0.1, ay=0.3))
+    choice = choose_lighting(mat, env)
+    assert (choice.mode, choice.setting) == ("mis", 1024) and choice.within
+    assert "256-sample draws" in choice.candidates[-1].reason
+    renderer.set_source(mat)
+    renderer.set_environment(env)
+    reference = refined_environment_image(mat, env, SIZE, SIZE)
+    inside = sphere_view(SIZE, SIZE).inside
+    judged = lambda image: max(relative_rmse(image, reference, inside), pixel_relative_rmse(image, reference, inside))
+    settings = RenderSettings("mis", SIZE, SIZE, samples=1024)
+    measured = float(np.sqrt(np.mean([judged(independent_image(renderer, settings, seed)) ** 2 for seed in range(6)])))
+    assert measured <= choice.predicted_error <= 3 * measured, (choice.predicted_error, measured)

@@ -9,7 +9,8 @@ rendering from the material and the map alone: SH from the map's energy beyond o
 pixels against a 64 × 32 copy of the map) plus its tables' own error (`SH_TABLE_ERROR`, a
 floor); prefiltered, FIS and MIS from their NumPy twins (`auto_twins`: the renderer's own
 estimators, equal to its images to 1e-5) at a few hundred pixels — a 20² grid plus the pixels
-that mirror the map's brightest texels — against a converged estimate of the same pixels.
+that mirror the map's brightest texels — against a converged estimate of the same pixels;
+MIS at 1,024 samples, the last rung, from its 256-sample draws (`auto_twins.quadrupled_error`).
 They are weighed cheapest first, and the first whose prediction is within the tolerance is
 chosen, nothing dearer being predicted; if none is, the one predicted best. Nothing is rendered and no reference image is made.
 
@@ -149,7 +150,7 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
     pixels, the map's mips — is made when the first of them needs it."""
     from functools import cache
 
-    from brdflab.lighting.auto_twins import fis_errors, mis_errors, view_pilot
+    from brdflab.lighting.auto_twins import draws_error, fis_errors, mis_draws, quadrupled_error, view_pilot
     from brdflab.lighting.view_mixture import fits
 
     view = cache(lambda: view_pilot(source, proxy, env))
@@ -157,6 +158,7 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
     levels = cache(lambda: [level.astype(float) for level in solid_angle_mips(env.data)])
     lights = len(bright_lights(reduced(env))[1])  # as the map's stack holds them
     fitted = sum(fits(lobe) for lobe in proxy.lobes)  # counted, not fitted: prefiltered may not be weighed
+    drawn = {}  # MIS's draws of the pilot pixels by sample count: the last rung is predicted from its quarter's
     for mode, setting in settings(lights, fitted):
         cost = frame_cost(mode, setting, lights, fitted)
         if mode == "prefiltered":
@@ -167,10 +169,17 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
             truncated = truncation_error(pilot, setting)
             yield Candidate(mode, setting, float(np.hypot(truncated, SH_TABLE_ERROR)), cost,
                             f"map × lobe energy beyond order {setting}: {100 * truncated:.1f} %")
+        elif mode == "fis":
+            yield Candidate(mode, setting, fis_errors(source, proxy, env, [setting], view(), levels())[setting], cost,
+                            f"its {setting}-sample estimator at the pilot pixels against a converged one")
+        elif setting == SAMPLE_COUNTS[-1] and setting // 4 in drawn:
+            yield Candidate(mode, setting, quadrupled_error(view(), drawn[setting // 4]), cost,
+                            f"its {setting // 4}-sample draws at the pilot pixels, error halved or averaged, "
+                            "whichever is larger (the last rung: it is picked unless something cheaper is "
+                            "predicted better, and drawing it was most of a choice's time)")
         else:
-            errors = (fis_errors(source, proxy, env, [setting], view(), levels()) if mode == "fis"
-                      else mis_errors(source, proxy, env, [setting], view(), control()))
-            yield Candidate(mode, setting, errors[setting], cost,
+            drawn[setting] = mis_draws(source, proxy, env, setting, view(), control())
+            yield Candidate(mode, setting, draws_error(view(), drawn[setting]), cost,
                             f"its {setting}-sample estimator at the pilot pixels against a converged one")
 
 
