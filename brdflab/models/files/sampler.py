@@ -88,8 +88,9 @@ class TabulatedSampler:
     def ensure(self, tables, stop=None) -> bool:
         """Build the tables among `tables` (indices) that are not built yet; whether all are.
         `stop()`, asked between passes, abandons the rest (a build nobody waits for now)."""
-        todo = np.unique(np.asarray(tables, int).ravel())
-        todo = todo[~self._built[todo]]
+        tables = np.asarray(tables, int).ravel()
+        todo = np.unique(tables[~self._built[tables]])  # every draw and density asks: hashing all of its
+        # tables (built the first time) was 6 % of a render Auto's time on a measured slice
         for start in range(0, todo.size, VIEWS_PER_PASS):
             if stop is not None and stop():
                 return False
