@@ -225,3 +225,31 @@ def test_the_last_rung_predicted_from_its_quarter_is_not_below_the_renders(rende
     settings = RenderSettings("mis", SIZE, SIZE, samples=1024)
     measured = float(np.sqrt(np.mean([judged(independent_image(renderer, settings, seed)) ** 2 for seed in range(6)])))
     assert measured <= choice.predicted_error <= 3 * measured, (choice.predicted_error, measured)
+
+
+def test_the_weights_draws_are_mis_at_their_count():
+    """Auto predicts MIS at CONTROL_SAMPLES from the draws the control's weight is chosen on
+    (`control_draws`, `weighted_draws`): at any weight they are what `mis_pixels` gives with
+    the same shifts, and the weight chosen from them is the weight chosen without them."""
+    from brdflab.lighting.auto_twins import (
+        CONTROL_FAMILY,
+        CONTROL_SAMPLES,
+        control_draws,
+        control_weight,
+        weighted_draws,
+    )
+
+    env = sun_map()
+    mat = material(Lobe.create("Lambertian", [0.2] * 3), Lobe.create("CookTorranceGGX", [0.5] * 3, m=0.3, F0=0.9))
+    pixels = fis_pixels_of(env)
+    dist = environment_distribution(env)
+    control = map_control(env, mat)
+    draws = control_draws(mat, mat, env, control, dist, pixels)
+    beta = control_weight(mat, mat, env, control, dist, pixels, draws)
+    assert 0.0 < beta <= 1.0 and beta == control_weight(mat, mat, env, control, dist, pixels)
+    count = len(pixels.frames[0])
+    for weight in (0.0, 0.4, beta):
+        for k, values in enumerate(weighted_draws(draws, weight)):
+            shifts = pixel_shifts(np.arange(count), np.full(count, CONTROL_FAMILY + k))
+            direct = mis_pixels(mat, mat, env, dist, pixels.frames, CONTROL_SAMPLES, shifts, (control, weight))
+            np.testing.assert_allclose(values, direct, rtol=1e-12, atol=1e-12 * float(np.abs(direct).max()))

@@ -290,19 +290,15 @@ def mis_parts(source, proxy, env: EnvironmentMap, dist, frames, count: int, shif
 
 CONTROL_SAMPLES = 64  # samples per pixel of the draws the control's weight is chosen on …
 CONTROL_DRAWS = 4  # … and how many (a family of shifts of their own: β is fixed before a render's samples)
+CONTROL_FAMILY = 1 << 21  # their shifts' family (`pixel_shifts`), unrelated to a render's sets
 
 
-def control_weight(source, proxy, env: EnvironmentMap, control, dist=None, pixels: PilotPixels | None = None) -> float:
-    """The control's weight β for this material and map, in [0, 1]: the least-squares control
-    coefficient Σ Cov(X, Y) / Σ Var(Y) over the pilot pixels (X the plain estimate, Y the
-    control's, their covariance over CONTROL_DRAWS independent draws of CONTROL_SAMPLES
-    samples), each pixel weighted by its share of the view over its value squared (the
-    per-pixel relative error Auto judges). 1 takes all of the variance the control explains
-    where it is close to the integrand; less where subtracting it adds its own. 0 where the
-    variance it takes, the share ρ² = Cov² / (Var(X) Var(Y)), does not pay for its frames' cost
-    (`control_variate.frame_cost`): (1 − ρ²) × cost ≥ 1, so plain MIS with as many more samples
-    would do as well (a measured slice against its proxy, ρ² ≈ 0.1 for 1.5× the cost)."""
-    from brdflab.lighting.control_variate import fitted_in_control, frame_cost
+def control_draws(source, proxy, env: EnvironmentMap, control, dist=None,
+                  pixels: PilotPixels | None = None) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The draws the control's weight is chosen on: CONTROL_DRAWS independent draws of
+    CONTROL_SAMPLES samples at the pilot pixels, each `mis_parts`' (plain estimate, control's
+    estimate, control's integral), (pixels, 3) each. From them MIS's estimate at any weight β
+    is plain + β (integral − control's estimate) (`weighted_draws`)."""
     from brdflab.lighting.env_sampling import environment_distribution
     from brdflab.lighting.sampling_sets import pixel_shifts
 
@@ -310,10 +306,34 @@ def control_weight(source, proxy, env: EnvironmentMap, control, dist=None, pixel
     dist = dist or environment_distribution(env)
     frames = pixels.frames
     count = len(frames[0])
-    draws = [pixel_shifts(np.arange(count), np.full(count, (1 << 21) + draw)) for draw in range(CONTROL_DRAWS)]
-    estimate = lambda part, shifts: np.stack(mis_parts(source, proxy, env, dist, part, CONTROL_SAMPLES, shifts, control)[:2], 1)
-    parts = side_by_side_pieces([in_pieces(estimate, frames, CONTROL_SAMPLES, shifts) for shifts in draws])
-    lum = np.stack(parts) @ LUMINANCE  # (draws, pixels, 2): plain and control, luminance
+    draws = [pixel_shifts(np.arange(count), np.full(count, CONTROL_FAMILY + draw)) for draw in range(CONTROL_DRAWS)]
+    estimate = lambda part, shifts: np.stack(mis_parts(source, proxy, env, dist, part, CONTROL_SAMPLES, shifts, control), 1)
+    stacked = side_by_side_pieces([in_pieces(estimate, frames, CONTROL_SAMPLES, shifts) for shifts in draws])
+    return [(parts[:, 0], parts[:, 1], parts[:, 2]) for parts in stacked]
+
+
+def weighted_draws(draws: list[tuple[np.ndarray, np.ndarray, np.ndarray]], weight: float) -> list[np.ndarray]:
+    """MIS's estimates (pixels, 3) with its control at `weight` in each of `control_draws`:
+    what `mis_pixels` gives for the same samples (plain MIS where β = 0)."""
+    return [plain if weight == 0.0 else plain + weight * (exact - controlled) for plain, controlled, exact in draws]
+
+
+def control_weight(source, proxy, env: EnvironmentMap, control, dist=None, pixels: PilotPixels | None = None,
+                   draws: list | None = None) -> float:
+    """The control's weight β for this material and map, in [0, 1]: the least-squares control
+    coefficient Σ Cov(X, Y) / Σ Var(Y) over the pilot pixels (X the plain estimate, Y the
+    control's, their covariance over `control_draws`, made here unless given), each pixel
+    weighted by its share of the view over its value squared (the per-pixel relative error Auto
+    judges). 1 takes all of the variance the control explains where it is close to the
+    integrand; less where subtracting it adds its own. 0 where the variance it takes, the share
+    ρ² = Cov² / (Var(X) Var(Y)), does not pay for its frames' cost
+    (`control_variate.frame_cost`): (1 − ρ²) × cost ≥ 1, so plain MIS with as many more samples
+    would do as well (a measured slice against its proxy, ρ² ≈ 0.1 for 1.5× the cost)."""
+    from brdflab.lighting.control_variate import fitted_in_control, frame_cost
+
+    pixels = pixels or fis_pixels_of(env)
+    draws = draws if draws is not None else control_draws(source, proxy, env, control, dist, pixels)
+    lum = np.stack([np.stack(parts[:2], 1) for parts in draws]) @ LUMINANCE  # (draws, pixels, 2): plain, control
     x, y = lum[..., 0], lum[..., 1]
     scale = np.abs(x.mean(0))
     scale = np.maximum(scale, 1e-2 * max(float(np.median(scale)), 1e-300))
@@ -330,10 +350,11 @@ _WEIGHTS: dict = {}  # weight_for's answers: (material, lit source, map) → β
 _WEIGHTS_KEPT = 16
 
 
-def weight_for(source, proxy, env: EnvironmentMap, control=None, dist=None) -> float:
+def weight_for(source, proxy, env: EnvironmentMap, control=None, dist=None, draws: list | None = None) -> float:
     """`control_weight` for this material and map (the map's control and distribution made
-    here unless given: what the window's worker runs), remembered for the (material, table,
-    map) it was chosen for: Auto and the render it picks use the same β, computed once."""
+    here unless given: what the window's worker runs; `draws`: its `control_draws` when the
+    caller has them), remembered for the (material, table, map) it was chosen for: Auto and
+    the render it picks use the same β, computed once."""
     from brdflab.lighting.control_variate import map_control
     from brdflab.lighting.prefilter import map_key
     from brdflab.material.analytic import AnalyticMaterial
@@ -343,7 +364,7 @@ def weight_for(source, proxy, env: EnvironmentMap, control=None, dist=None) -> f
     if key not in _WEIGHTS:
         while len(_WEIGHTS) >= _WEIGHTS_KEPT:
             _WEIGHTS.pop(next(iter(_WEIGHTS)))
-        _WEIGHTS[key] = control_weight(source, proxy, env, control or map_control(env, proxy), dist)
+        _WEIGHTS[key] = control_weight(source, proxy, env, control or map_control(env, proxy), dist, draws=draws)
     return _WEIGHTS[key]
 
 
