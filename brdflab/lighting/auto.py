@@ -10,7 +10,7 @@ pixels against a 64 × 32 copy of the map) plus its tables' own error (`SH_TABLE
 floor); prefiltered, FIS and MIS from their NumPy twins (`auto_twins`: the renderer's own
 estimators, equal to its images to 1e-5) at a few hundred pixels — a 20² grid plus the pixels
 that mirror the map's brightest texels — against a converged estimate of the same pixels;
-MIS at 64 samples from the draws its control's weight is chosen on (`mis_control_draws`), at
+MIS at 64 samples from the draws its control's weight is chosen on (`auto_twins.control_draws`), at
 1,024 samples, the last rung, from its 256-sample draws (`auto_twins.quadrupled_error`).
 They are weighed cheapest first, and the first whose prediction is within the tolerance is
 chosen, nothing dearer being predicted; if none is, the one predicted best. Nothing is rendered and no reference image is made.
@@ -148,15 +148,28 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
     """Each candidate with its predicted error and frame cost, cheapest first, predicted only
     when asked for (`proxy`: the analytic lobes the renderer draws the source with where it
     cannot use measured data directly). What several share — the view pilot's converged
-    pixels, the map's mips — is made when the first of them needs it."""
+    pixels, the map's mips, the draws the control's weight is chosen on (MIS's own at 64
+    samples) — is made when the first of them needs it."""
     from functools import cache
 
-    from brdflab.lighting.auto_twins import CONTROL_SAMPLES, draws_error, fis_errors, mis_draws, quadrupled_error, view_pilot
+    from brdflab.lighting.auto_twins import (
+        CONTROL_SAMPLES,
+        control_draws,
+        draws_error,
+        fis_errors,
+        mis_draws,
+        quadrupled_error,
+        view_pilot,
+        weight_for,
+        weighted_draws,
+    )
+    from brdflab.lighting.control_variate import map_control
     from brdflab.lighting.view_mixture import fits
 
     view = cache(lambda: view_pilot(source, proxy, env))
-    control_and_draws = cache(lambda: mis_control_draws(source, proxy, env, view()))
-    control = lambda: control_and_draws()[0]
+    mis_map = cache(lambda: map_control(env, proxy))
+    weight_draws = cache(lambda: control_draws(source, proxy, env, mis_map(), view().dist, view().pixels))
+    control = cache(lambda: (mis_map(), weight_for(source, proxy, env, mis_map(), view().dist, weight_draws)))
     levels = cache(lambda: [level.astype(float) for level in solid_angle_mips(env.data)])
     lights = len(bright_lights(reduced(env))[1])  # as the map's stack holds them
     fitted = sum(fits(lobe) for lobe in proxy.lobes)  # counted, not fitted: prefiltered may not be weighed
@@ -180,7 +193,7 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
                             "whichever is larger (the last rung: it is picked unless something cheaper is "
                             "predicted better, and drawing it was most of a choice's time)")
         else:
-            drawn[setting] = (control_and_draws()[1] if setting == CONTROL_SAMPLES
+            drawn[setting] = (weighted_draws(weight_draws(), control()[1]) if setting == CONTROL_SAMPLES
                               else mis_draws(source, proxy, env, setting, view(), control()))
             yield Candidate(mode, setting, draws_error(view(), drawn[setting]), cost,
                             f"its {setting}-sample estimator at the pilot pixels against a converged one")
@@ -193,19 +206,6 @@ def mis_control(source, proxy, env: EnvironmentMap, view) -> tuple:
 
     control = map_control(env, proxy)
     return control, weight_for(source, proxy, env, control, view.dist)
-
-
-def mis_control_draws(source, proxy, env: EnvironmentMap, view) -> tuple[tuple, list[np.ndarray]]:
-    """((the map's control, its weight β), MIS's estimates at the pilot pixels in the draws β
-    is chosen on, at CONTROL_SAMPLES samples): those draws are MIS's prediction at that count,
-    made once for both."""
-    from brdflab.lighting.auto_twins import control_draws, weighted_draws, weight_for
-    from brdflab.lighting.control_variate import map_control
-
-    control = map_control(env, proxy)
-    draws = control_draws(source, proxy, env, control, view.dist, view.pixels)
-    weight = weight_for(source, proxy, env, control, view.dist, draws)
-    return (control, weight), weighted_draws(draws, weight)
 
 
 def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candidate]:

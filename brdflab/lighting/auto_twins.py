@@ -350,10 +350,11 @@ _WEIGHTS: dict = {}  # weight_for's answers: (material, lit source, map) → β
 _WEIGHTS_KEPT = 16
 
 
-def weight_for(source, proxy, env: EnvironmentMap, control=None, dist=None, draws: list | None = None) -> float:
+def weight_for(source, proxy, env: EnvironmentMap, control=None, dist=None,
+               draws: Callable[[], list] | None = None) -> float:
     """`control_weight` for this material and map (the map's control and distribution made
-    here unless given: what the window's worker runs; `draws`: its `control_draws` when the
-    caller has them), remembered for the (material, table, map) it was chosen for: Auto and
+    here unless given: what the window's worker runs; `draws()`: its `control_draws`, asked
+    for only when the weight is not remembered, from a caller that may have them), remembered for the (material, table, map) it was chosen for: Auto and
     the render it picks use the same β, computed once."""
     from brdflab.lighting.control_variate import map_control
     from brdflab.lighting.prefilter import map_key
@@ -364,7 +365,8 @@ def weight_for(source, proxy, env: EnvironmentMap, control=None, dist=None, draw
     if key not in _WEIGHTS:
         while len(_WEIGHTS) >= _WEIGHTS_KEPT:
             _WEIGHTS.pop(next(iter(_WEIGHTS)))
-        _WEIGHTS[key] = control_weight(source, proxy, env, control or map_control(env, proxy), dist, draws=draws)
+        _WEIGHTS[key] = control_weight(source, proxy, env, control or map_control(env, proxy), dist,
+                                       draws=None if draws is None else draws())
     return _WEIGHTS[key]
 
 
