@@ -189,9 +189,10 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
                             f"its {setting}-sample estimator at the pilot pixels against a converged one")
         elif setting == SAMPLE_COUNTS[-1] and setting // 4 in drawn:
             yield Candidate(mode, setting, quadrupled_error(view(), drawn[setting // 4]), cost,
-                            f"its {setting // 4}-sample draws at the pilot pixels, error halved or averaged, "
-                            "whichever is larger (the last rung: it is picked unless something cheaper is "
-                            "predicted better, and drawing it was most of a choice's time)")
+                            f"an upper estimate from its {setting // 4}-sample draws at the pilot pixels: their "
+                            "error halved or their average's error, whichever is larger (the last rung: it is "
+                            "picked unless something cheaper is predicted better, and drawing it was most of "
+                            "a choice's time)")
         else:
             drawn[setting] = (weighted_draws(weight_draws(), control()[1]) if setting == CONTROL_SAMPLES
                               else mis_draws(source, proxy, env, setting, view(), control()))

@@ -354,8 +354,9 @@ def weight_for(source, proxy, env: EnvironmentMap, control=None, dist=None,
                draws: Callable[[], list] | None = None) -> float:
     """`control_weight` for this material and map (the map's control and distribution made
     here unless given: what the window's worker runs; `draws()`: its `control_draws`, asked
-    for only when the weight is not remembered, from a caller that may have them), remembered for the (material, table, map) it was chosen for: Auto and
-    the render it picks use the same β, computed once."""
+    for only when the weight is not remembered, from a caller that may have them), remembered
+    for the (material, table, map) it was chosen for: Auto and the render it picks use the same
+    β, computed once."""
     from brdflab.lighting.control_variate import map_control
     from brdflab.lighting.prefilter import map_key
     from brdflab.material.analytic import AnalyticMaterial
@@ -523,9 +524,10 @@ def quadrupled_error(pilot: ViewPilot, images: list[np.ndarray]) -> float:
     average to √4 less noise, and a stratified set of 4N does at least that well where the
     noise dominates) and the error of the four averaged (a set of 4N samples of its own, which
     keeps what does not fall with N: the pilot's own floor, a bias). On the 75 pairs of
-    benchmarks/lighting_auto_pixels.py the direct prediction at 1,024 samples was 0.50–0.88× this
-    wherever the 256-sample one exceeded 2 % (0.5–1.16× everywhere but one heavy-tailed pair
-    at 1.6 %: 1.16×), and drawing it was a third to two thirds of a choice's time."""
+    benchmarks/lighting_auto_pixels.py the direct prediction at 1,024 samples was 0.51–0.88× this
+    wherever the 256-sample one exceeded 2 %, and 0.5–1.02× elsewhere but on one heavy-tailed
+    pair that 256 samples already satisfied (1.16×); drawing it was a third to two thirds of a
+    choice's time."""
     return max(draws_error(pilot, images) / 2.0, pilot.error(np.mean(images, axis=0)))
 
 
