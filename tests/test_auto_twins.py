@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from conftest import DATA, needs_shared
 
-from brdflab.lighting.auto import mis_control
 from brdflab.lighting.auto_twins import (
     PilotPixels,
     converged_pixels,
@@ -147,7 +146,7 @@ def test_converged_estimate_and_prediction_track_the_quadrature(renderer):
     every = frames(SIZE)
     uniform = PilotPixels(every, np.full(len(every[0]), 1.0 / len(every[0])))
     pilot = view_pilot(mat, mat, env, uniform)
-    control = mis_control(mat, mat, env, pilot)
+    control = (map_control(env, mat), renderer.control_weight())  # as the renderer draws it
     for mode, errors in (("fis", fis_errors), ("mis", partial(mis_errors, control=control))):
         for n, p in errors(mat, mat, env, (16, 256), pilot).items():
             settings = RenderSettings(mode, SIZE, SIZE, samples=n)
@@ -205,7 +204,7 @@ def test_twins_shaded_in_pieces_equal_the_whole():
 
 @pytest.mark.parametrize("map_name", ["moonlit-night", "studio-rim-light"])
 def test_the_last_rung_predicted_from_its_quarter_is_not_below_the_renders(renderer, map_name):
-    """MIS at 1,024 samples is predicted from the 256-sample draws (`quadrupled_error`), not
+    """MIS at 1,024 samples is predicted from the 256-sample draws (`pooled_error`), not
     drawn: on held-out maps where 256 samples are not enough, Auto picks it and its prediction
     is at least the renderer's error (the RMS over six independent images, against the
     subdivided quadrature) and within 3× of it."""

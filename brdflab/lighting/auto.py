@@ -11,7 +11,7 @@ floor); prefiltered, FIS and MIS from their NumPy twins (`auto_twins`: the rende
 estimators, equal to its images to 1e-5) at a few hundred pixels — a 20² grid plus the pixels
 that mirror the map's brightest texels — against a converged estimate of the same pixels;
 MIS at 64 samples from the draws its control's weight is chosen on (`auto_twins.control_draws`), at
-1,024 samples, the last rung, from its 256-sample draws (`auto_twins.quadrupled_error`).
+1,024 samples, the last rung, from its four 256-sample draws (`auto_twins.pooled_error`).
 They are weighed cheapest first, and the first whose prediction is within the tolerance is
 chosen, nothing dearer being predicted; if none is, the one predicted best. Nothing is rendered and no reference image is made.
 
@@ -154,11 +154,12 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
 
     from brdflab.lighting.auto_twins import (
         CONTROL_SAMPLES,
+        MIS_DRAWS,
         control_draws,
         draws_error,
         fis_errors,
         mis_draws,
-        quadrupled_error,
+        pooled_error,
         view_pilot,
         weight_for,
         weighted_draws,
@@ -173,7 +174,7 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
     levels = cache(lambda: [level.astype(float) for level in solid_angle_mips(env.data)])
     lights = len(bright_lights(reduced(env))[1])  # as the map's stack holds them
     fitted = sum(fits(lobe) for lobe in proxy.lobes)  # counted, not fitted: prefiltered may not be weighed
-    drawn = {}  # MIS's draws of the pilot pixels by sample count: the last rung is predicted from its quarter's
+    drawn = {}  # MIS's draws of the pilot pixels by sample count: the last rung is predicted from its pooled draws
     for mode, setting in settings(lights, fitted):
         cost = frame_cost(mode, setting, lights, fitted)
         if mode == "prefiltered":
@@ -187,26 +188,17 @@ def predictions(source, proxy, env: EnvironmentMap, pilot: Pilot) -> Iterator[Ca
         elif mode == "fis":
             yield Candidate(mode, setting, fis_errors(source, proxy, env, [setting], view(), levels())[setting], cost,
                             f"its {setting}-sample estimator at the pilot pixels against a converged one")
-        elif setting == SAMPLE_COUNTS[-1] and setting // 4 in drawn:
-            yield Candidate(mode, setting, quadrupled_error(view(), drawn[setting // 4]), cost,
-                            f"an upper estimate from its {setting // 4}-sample draws at the pilot pixels: their "
-                            "error halved or their average's error, whichever is larger (the last rung: it is "
-                            "picked unless something cheaper is predicted better, and drawing it was most of "
-                            "a choice's time)")
+        elif setting == SAMPLE_COUNTS[-1] and setting // MIS_DRAWS in drawn:
+            yield Candidate(mode, setting, pooled_error(view(), drawn[setting // MIS_DRAWS]), cost,
+                            f"an upper estimate from its {setting // MIS_DRAWS}-sample draws at the pilot pixels: "
+                            f"their error over √{MIS_DRAWS} or their average's error, whichever is larger (the last "
+                            "rung: it is picked unless something cheaper is predicted better, and drawing it was "
+                            "most of a choice's time)")
         else:
             drawn[setting] = (weighted_draws(weight_draws(), control()[1]) if setting == CONTROL_SAMPLES
                               else mis_draws(source, proxy, env, setting, view(), control()))
             yield Candidate(mode, setting, draws_error(view(), drawn[setting]), cost,
                             f"its {setting}-sample estimator at the pilot pixels against a converged one")
-
-
-def mis_control(source, proxy, env: EnvironmentMap, view) -> tuple:
-    """(the map's control, its weight β) as the renderer's MIS draws them for this material."""
-    from brdflab.lighting.auto_twins import weight_for
-    from brdflab.lighting.control_variate import map_control
-
-    control = map_control(env, proxy)
-    return control, weight_for(source, proxy, env, control, view.dist)
 
 
 def predict_all(source, proxy, env: EnvironmentMap, pilot: Pilot) -> list[Candidate]:

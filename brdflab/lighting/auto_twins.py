@@ -300,15 +300,12 @@ def control_draws(source, proxy, env: EnvironmentMap, control, dist=None,
     estimate, control's integral), (pixels, 3) each. From them MIS's estimate at any weight β
     is plain + β (integral − control's estimate) (`weighted_draws`)."""
     from brdflab.lighting.env_sampling import environment_distribution
-    from brdflab.lighting.sampling_sets import pixel_shifts
 
     pixels = pixels or fis_pixels_of(env)
     dist = dist or environment_distribution(env)
-    frames = pixels.frames
-    count = len(frames[0])
-    draws = [pixel_shifts(np.arange(count), np.full(count, CONTROL_FAMILY + draw)) for draw in range(CONTROL_DRAWS)]
     estimate = lambda part, shifts: np.stack(mis_parts(source, proxy, env, dist, part, CONTROL_SAMPLES, shifts, control), 1)
-    stacked = side_by_side_pieces([in_pieces(estimate, frames, CONTROL_SAMPLES, shifts) for shifts in draws])
+    stacked = independent_draws(estimate, pixels.frames, CONTROL_SAMPLES,
+                                range(CONTROL_FAMILY, CONTROL_FAMILY + CONTROL_DRAWS))
     return [(parts[:, 0], parts[:, 1], parts[:, 2]) for parts in stacked]
 
 
@@ -336,7 +333,7 @@ def control_weight(source, proxy, env: EnvironmentMap, control, dist=None, pixel
     pixels = pixels or fis_pixels_of(env)
     draws = draws if draws is not None else control_draws(source, proxy, env, control, dist, pixels)
     lum = np.stack([np.stack(parts[:2], 1) for parts in draws]) @ LUMINANCE  # (draws, pixels, 2): plain, control
-    x, y = lum[..., 0] - lum[..., 0].mean(0), lum[..., 1] - lum[..., 1].mean(0)
+    x, y = np.moveaxis(lum - lum.mean(0), -1, 0)
     mean = lum[..., 0].mean(0)
     scale = np.maximum(np.abs(mean), 1e-2 * max(float(np.median(np.abs(mean))), 1e-300))
     weightings = (pixels.weight / scale**2, pixels.weight / max(float((pixels.weight * mean**2).sum()), 1e-300))
@@ -507,13 +504,19 @@ def mis_draws(source, proxy, env: EnvironmentMap, count: int, pilot: ViewPilot,
     image is one draw, and under a sun a draw's error is heavy-tailed (a measured paint at 256
     samples: 0.6–6.5 % from one image to the next); one pilot draw predicted 0.67 % where the
     image came out 7.5 %, the RMS of six draws 5.0 % against the images' 3.3 %."""
+    estimate = lambda part, shifts: mis_pixels(source, proxy, env, pilot.dist, part, count, shifts, control)
+    return independent_draws(estimate, pilot.pixels.frames, count, range(MIS_DRAWS))
+
+
+def independent_draws(estimate: Callable[..., np.ndarray], frames, count: int, families) -> list[np.ndarray]:
+    """`estimate(frames, shifts)` of every pilot pixel at `count` samples, one draw per shift
+    family (`pixel_shifts`: within a family each pixel has its own shift), made in pieces two
+    at a time (`in_pieces`, `side_by_side_pieces`)."""
     from brdflab.lighting.sampling_sets import pixel_shifts
 
-    frames = pilot.pixels.frames
     pixels = len(frames[0])
-    draws = [pixel_shifts(np.arange(pixels), np.full(pixels, draw)) for draw in range(MIS_DRAWS)]
-    estimate = lambda part, shifts: mis_pixels(source, proxy, env, pilot.dist, part, count, shifts, control)
-    return side_by_side_pieces([in_pieces(estimate, frames, count, shifts) for shifts in draws])
+    return side_by_side_pieces([in_pieces(estimate, frames, count, pixel_shifts(np.arange(pixels), np.full(pixels, family)))
+                                for family in families])
 
 
 def draws_error(pilot: ViewPilot, images: list[np.ndarray]) -> float:
@@ -521,17 +524,17 @@ def draws_error(pilot: ViewPilot, images: list[np.ndarray]) -> float:
     return float(np.sqrt(np.mean([pilot.error(values) ** 2 for values in images])))
 
 
-def quadrupled_error(pilot: ViewPilot, images: list[np.ndarray]) -> float:
-    """MIS's predicted error at four times the sample count of `images` (MIS_DRAWS = 4 draws,
-    `mis_draws`) without drawing it: the larger of their error halved (four independent sets
-    average to √4 less noise, and a stratified set of 4N does at least that well where the
-    noise dominates) and the error of the four averaged (a set of 4N samples of its own, which
-    keeps what does not fall with N: the pilot's own floor, a bias). On the 75 pairs of
-    benchmarks/lighting_auto_pixels.py the direct prediction at 1,024 samples was 0.51–0.88× this
-    wherever the 256-sample one exceeded 2 %, and 0.5–1.02× elsewhere but on one heavy-tailed
-    pair that 256 samples already satisfied (1.16×); drawing it was a third to two thirds of a
-    choice's time."""
-    return max(draws_error(pilot, images) / 2.0, pilot.error(np.mean(images, axis=0)))
+def pooled_error(pilot: ViewPilot, images: list[np.ndarray]) -> float:
+    """MIS's predicted error at k times the sample count of `images` (k independent draws,
+    `mis_draws`) without drawing it: the larger of their error over √k (k independent sets
+    average to √k less noise, and one stratified set of k N does at least that well where the
+    noise dominates) and the error of the k averaged (a set of k N samples of its own, which
+    keeps what does not fall with N: the pilot's own floor, a bias). With k = MIS_DRAWS = 4, on
+    the 75 pairs of benchmarks/lighting_auto_pixels.py the direct prediction at 1,024 samples
+    was 0.51–0.88× this wherever the 256-sample one exceeded 2 %, and 0.5–1.02× elsewhere but on
+    one heavy-tailed pair that 256 samples already satisfied (1.16×); drawing it was a third to
+    two thirds of a choice's time."""
+    return max(draws_error(pilot, images) / np.sqrt(len(images)), pilot.error(np.mean(images, axis=0)))
 
 
 def fis_errors(source, proxy, env: EnvironmentMap, counts, pilot: ViewPilot | None = None,
