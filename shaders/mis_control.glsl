@@ -3,7 +3,7 @@
 // β P + MIS[f·cos·L − β g], g a function of the direction whose integral is P — the irradiance
 // kernel × the diffuse shares, each lookup of the fitted lobes among the first four at the nearer
 // view cosine × its layer's kernel (over its integral), all × the stack's dimmed map texel by texel,
-// plus a light texel's f·cos at its centre × its excess. Needs shaders/prefiltered.glsl.
+// plus, in a light's texel, f·cos at the light's direction × the texel's excess. Needs shaders/prefiltered.glsl.
 uniform float u_cv_weight;              // β, fixed per material and map before any sample
 uniform vec3 u_cv_layer[PREF_LAYERS];   // per stack layer: (kernel family: 0 cosine, 1 Beckmann, 2 GGX, 3 Phong; α; 1 / ∫K, 0: no kernel)
 uniform sampler2D u_cv_excess;          // RGBA32F at the stack's texels: a light's excess radiance, its index (−1: none)

@@ -49,13 +49,44 @@ def render(renderer, env, mat, size=SIZE):
     return renderer.render(RenderSettings(mode="prefiltered", width=size, height=size))
 
 
+def test_a_bright_area_of_more_texels_than_lights_is_lit_in_blocks():
+    """studio-two-boxes' soft boxes have 1,450 texels above the contrast: each is dimmed to the
+    contrast's level, and its excess goes to the light of its block (3 × 3 texels here), at most
+    MAX_LIGHTS of them. Dimmed map plus excess is the map texel by texel; a light's power is its
+    texels' excess × solid angle; its direction lies within its block."""
+    from brdflab.lighting.synthetic_maps import spec
+
+    env = spec("studio-two-boxes").build(128, 64)
+    dimmed, lights, excess = prefilter.bright_lights(env)
+    d, solid = env.texel_directions()
+    lum = env.data.astype(float) @ prefilter.LUMINANCE
+    level = prefilter.LIGHT_CONTRAST * prefilter.mean_luminance(lum, solid)
+    bright = lum > level
+    assert bright.sum() > prefilter.MAX_LIGHTS >= len(lights) > prefilter.MAX_LIGHTS // 2
+    np.testing.assert_array_equal(excess[..., 3] >= 0, bright)
+    np.testing.assert_allclose(dimmed.data + excess[..., :3], env.data, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(dimmed.data[bright] @ prefilter.LUMINANCE, level, rtol=1e-5)
+    index = excess[..., 3].astype(int)[bright]
+    power = excess[..., :3][bright] * np.broadcast_to(solid, lum.shape)[bright][:, None]
+    np.testing.assert_allclose(np.stack([power[index == k].sum(0) for k in range(len(lights))]), lights[:, 3:],
+                               rtol=1e-4)
+    for k in range(len(lights)):
+        cosines = d[bright][index == k] @ lights[k, :3]
+        assert cosines.max() > 0.999 and cosines.min() > np.cos(np.radians(9))
+    # a map of fewer bright texels keeps one light per texel, at its centre
+    _, lights, excess = prefilter.bright_lights(spec("studio-strip").build(128, 64))
+    rows, cols = np.nonzero(excess[..., 3] >= 0)
+    assert len(rows) == len(lights)
+    np.testing.assert_allclose(d[rows, cols], lights[excess[rows, cols, 3].astype(int), :3], atol=1e-6)
+
+
 def test_stack_layers_are_the_texel_quadrature():
     """The FFT convolution equals the direct sum over texels of L Ω K(d·t) (normalised), L the
     map without its brightest texels (they are the stack's lights)."""
     rng = np.random.default_rng(3)
     env = EnvironmentMap(rng.gamma(0.5, 1.0, (16, 32, 3)).astype(np.float32))
     stack = prefilter.build_stack(env)
-    dimmed, lights = prefilter.bright_lights(env)
+    dimmed, lights, _ = prefilter.bright_lights(env)
     np.testing.assert_array_equal(stack.lights, lights)
     d, solid = env.texel_directions()
     dirs, omega = d.reshape(-1, 3), np.broadcast_to(solid, (16, 32)).ravel()
@@ -232,7 +263,7 @@ def test_a_bright_area_is_lit_exactly_not_blurred_across_the_horizon(renderer):
     lum = env.data.astype(float) @ LUMINANCE
     _, solid = env.texel_directions()
     mean = float((lum * solid).sum() / np.broadcast_to(solid, lum.shape).sum())
-    _, lights = prefilter.bright_lights(env)
+    _, lights, _ = prefilter.bright_lights(env)
     assert len(lights) == np.count_nonzero(lum > prefilter.LIGHT_CONTRAST * mean) > prefilter.LIGHTS
     mat = material(Lobe.create("CookTorranceGGX", [0.5] * 3, m=0.3, F0=1.0))
     size = 32

@@ -99,7 +99,7 @@ def test_the_brightest_texels_are_lights_that_add_up_to_the_map():
     """bright_lights: the dimmed map plus the lights' power is the map's power texel by texel,
     and no dimmed texel is brighter than the brightest one left as it was."""
     env = with_sun(venice())
-    dimmed, lights = prefilter.bright_lights(env, 8)
+    dimmed, lights, excess = prefilter.bright_lights(env, 8)
     _, solid = env.texel_directions()
     lum = dimmed.data @ prefilter.LUMINANCE
     power = (env.data - dimmed.data) * solid[:, :, None]

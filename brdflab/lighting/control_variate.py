@@ -10,9 +10,9 @@ direction whose integral over the sphere is P, exactly:
   kernel about the lookup's direction, normalised over the sphere (`layer_kernels`) — all × the
   stack's dimmed map texel by texel; their integrals are the stack's convolutions, read at the
   lookups' directions;
-- for each of the stack's lights (a bright texel's excess over the dimmed map), f·cos at the
-  texel's centre × the excess inside that texel: its integral is the prefiltered mode's sum
-  over its lights.
+- for each of the stack's lights (the excess of a bright texel, or of a block of them, over the
+  dimmed map), f·cos at the light's direction × the excess inside its texels: its integral is
+  the prefiltered mode's sum over its lights.
 So P is close to the prefiltered mode's image, less its glossy and anisotropic lobes' taps
 (which, not close to their lobes sample by sample, added variance: docs/mis.md). The estimate is unbiased
 for any g with a known integral and any weight β fixed before the samples are drawn: below a
@@ -34,7 +34,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from brdflab.lighting.envmap import band_solid_angle, texel_of
+from brdflab.lighting.envmap import texel_of
 from brdflab.lighting.prefilter import ALPHAS, KERNELS, PrefilteredStack, StackLayers
 from brdflab.lighting.split_sum import albedo_at, material_split, mixture_lookups, sample_latlong
 from brdflab.lighting.view_mixture import kernel_values as mixture_kernel_values
@@ -95,17 +95,9 @@ def layer_kernels() -> np.ndarray:
 
 
 def excess_radiance(stack: PrefilteredStack | StackLayers) -> np.ndarray:
-    """(H, W, 4) at the stack's texels: each light's excess radiance (its power / its texel's
-    solid angle) and its index among the stack's lights; 0 and −1 elsewhere."""
-    h, w = stack.irradiance().shape[:2]
-    out = np.zeros((h, w, 4))
-    out[..., 3] = -1.0
-    if len(stack.lights):
-        rows, cols = texel_of(stack.light_directions.astype(float), h, w)
-        solid = band_solid_angle(rows / h, (rows + 1) / h, w)
-        out[rows, cols, :3] = stack.light_power.astype(float) / solid[:, None]
-        out[rows, cols, 3] = np.arange(len(stack.lights))
-    return out
+    """(H, W, 4) at the stack's texels: the excess radiance each texel gave its light and that
+    light's index among the stack's lights; 0 and −1 elsewhere (`prefilter.MapLights`)."""
+    return stack.excess.astype(float)
 
 
 @dataclass(frozen=True)
@@ -166,7 +158,7 @@ def pixel_control(material: AnalyticMaterial, stack: PrefilteredStack | StackLay
 def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers, excess: np.ndarray, frames,
                    world: np.ndarray) -> np.ndarray:
     """g (pixels, samples, 3) at world directions `world` (pixels, samples, 3): the kernels
-    × the dimmed map texel by texel, plus a light texel's f·cos at its centre × its excess."""
+    × the dimmed map texel by texel, plus, in a light's texel, f·cos at the light × the texel's excess."""
     n, t, b = frames
     rows, cols = texel_of(world, *excess.shape[:2])
     weight = control.diffuse[:, None] * np.maximum(np.einsum("psc,pc->ps", world, n), 0.0)[..., None]

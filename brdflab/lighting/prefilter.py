@@ -7,17 +7,19 @@ per α in ALPHAS: L̄(r) = ∫ L(l) D(h) max(0, r·l) dl / ∫ D(h) max(0, r·l)
 the n = v = r assumption (the lobe keeps the shape it has at normal view), Karis's r·l weight;
 the Phong kernel is the wi-space lobe of Phong and Lafortune itself, cos^n(r, l) max(0, r·l).
 
-The map's brightest texels are taken out first (`light_count`: every texel LIGHT_CONTRAST
+The map's brightest texels are taken out first (`bright_lights`: every texel LIGHT_CONTRAST
 times brighter than the map's mean, at least LIGHTS and at most MAX_LIGHTS of them): each keeps
-the luminance of the next brightest, and its excess becomes a light (direction, radiance × solid angle) that the shading
-evaluates with the material itself, exactly as the quadrature does. A sun convolved into the
-layers was 59–438 % off for glossy lobes (a lobe's tail weighs it by the kernel's shape, not
-the lobe's, and the blend between two roughness layers is far off where it changes by orders of
-magnitude); what is left has a bounded dynamic range, where the kernel's shape matters little.
-A bright area of more texels than the lights (a window, a studio's strip light) left in the
-layers is blurred by the lobe's kernel across the surface's horizon, where the lobe itself
-never reaches: GGX m = 0.3 at grazing views 3–41× too bright under a strip light (624 % per
-pixel), 68 % in a room; taken out as lights it is evaluated with the clamped cosine.
+the luminance of the next brightest, and its excess becomes a light (direction, radiance × solid
+angle) that the shading evaluates with the material itself, exactly as the quadrature does. A sun
+convolved into the layers was 59–438 % off for glossy lobes (a lobe's tail weighs it by the
+kernel's shape, not the lobe's, and the blend between two roughness layers is far off where it
+changes by orders of magnitude); what is left has a bounded dynamic range, where the kernel's
+shape matters little. A bright area left in the layers is blurred by the lobe's kernel across
+the surface's horizon, where the lobe itself never reaches: GGX m = 0.3 at grazing views 3–41×
+too bright under a strip light (624 % per pixel), 68 % in a room; taken out as lights it is
+evaluated with the clamped cosine. An area of more texels above the contrast than MAX_LIGHTS (a
+studio's soft boxes, a forest's sky) is dimmed to the contrast's level and lit by one light per
+block of texels.
 
 Each layer is the same quadrature over the map's texels as `reference_view.environment_image`
 (texel radiance × exact solid angle, at texel centres), computed in O(H² W log W): the
@@ -36,8 +38,9 @@ import io
 import threading
 import zipfile
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -78,7 +81,8 @@ class PrefilteredStack:
 
     layers: np.ndarray
     key: str
-    lights: np.ndarray = field(default_factory=lambda: np.zeros((0, 6), np.float32))  # (n, 6): map direction, power
+    lights: np.ndarray  # (n, 6): map direction, power (`MapLights`)
+    excess: np.ndarray  # (H, W, 4): radiance taken into a light and its index (`MapLights`)
 
     @property
     def light_directions(self) -> np.ndarray:
@@ -199,36 +203,88 @@ def specular_kernel(kernel: str, alpha: float):
 def light_count(lum: np.ndarray, solid: np.ndarray) -> int:
     """How many of a map's texels are lit exactly: those LIGHT_CONTRAST times brighter than the
     map's mean luminance (by solid angle), at least LIGHTS, at most MAX_LIGHTS."""
-    mean = float((lum * solid).sum() / np.broadcast_to(solid, lum.shape).sum())
-    return int(np.clip(np.count_nonzero(lum > LIGHT_CONTRAST * mean), LIGHTS, MAX_LIGHTS))
+    return int(np.clip(np.count_nonzero(lum > LIGHT_CONTRAST * mean_luminance(lum, solid)), LIGHTS, MAX_LIGHTS))
 
 
-def bright_lights(env: EnvironmentMap, count: int | None = None) -> tuple[EnvironmentMap, np.ndarray]:
-    """The map with its `count` (default: `light_count`) brightest texels (by luminance) dimmed
-    to the next one's luminance, and their excess as lights (count, 6): texel centre direction,
-    radiance × solid angle (RGB). The two add up to the map exactly, texel by texel."""
+def mean_luminance(lum: np.ndarray, solid: np.ndarray) -> float:
+    """The map's mean luminance over the sphere (by solid angle)."""
+    return float((lum * solid).sum() / np.broadcast_to(solid, lum.shape).sum())
+
+
+class MapLights(NamedTuple):
+    """A map split in two that add up to it texel by texel: the map `dimmed` (what the layers
+    convolve) and `lights` (n, 6): direction, radiance × solid angle (RGB); `excess` (H, W, 4)
+    is, at each texel, the radiance taken from it into a light and that light's index (−1: none)."""
+
+    dimmed: EnvironmentMap
+    lights: np.ndarray
+    excess: np.ndarray
+
+
+def bright_lights(env: EnvironmentMap, count: int | None = None) -> MapLights:
+    """The map's brightest texels (by luminance) as lights. Each of the `count` (default:
+    `light_count`) brightest is dimmed to the next one's luminance, and its excess is a light at
+    its texel's centre. A bright area of more than MAX_LIGHTS texels above the contrast (a
+    studio's soft boxes, a forest's sky) would keep nearly all its power in the layers that way
+    (equal texels dimmed to each other's level), where the lobe's kernel blurs it across the
+    surface's horizon; its texels are dimmed to the contrast's level instead, and their excess
+    gathered into blocks of b × b texels, the smallest b that makes at most MAX_LIGHTS: one
+    light per block, at the excess's luminance-weighted mean direction."""
     lum = np.maximum(env.data.astype(float) @ LUMINANCE, 0.0)
     directions, solid = env.texel_directions()
-    order = np.argsort(lum, axis=None)[::-1]
-    count = min(light_count(lum, solid) if count is None else count, lum.size - 1)
-    level = lum.flat[order[count]]
-    top = order[:count]
-    keep = np.where(lum.flat[top] > 0.0, level / np.maximum(lum.flat[top], 1e-300), 1.0)
+    solid = np.broadcast_to(solid, lum.shape)
+    level = LIGHT_CONTRAST * mean_luminance(lum, solid)
+    if count is None and np.count_nonzero(lum > level) > MAX_LIGHTS:
+        texels, light = _blocks(lum > level)
+    else:
+        order = np.argsort(lum, axis=None)[::-1]
+        count = min(light_count(lum, solid) if count is None else count, lum.size - 1)
+        level = lum.flat[order[count]]
+        texels, light = order[:count], np.arange(count)
+    keep = np.where(lum.flat[texels] > 0.0, level / np.maximum(lum.flat[texels], 1e-300), 1.0)
     data = env.data.astype(float).reshape(-1, 3)
-    excess = data[top] * (1.0 - keep[:, None])
+    radiance = data[texels] * (1.0 - keep[:, None])
     rest = data.copy()
-    rest[top] *= keep[:, None]
-    solid = np.broadcast_to(solid, lum.shape).ravel()
-    lights = np.concatenate([directions.reshape(-1, 3)[top], excess * solid[top, None]], axis=1)
+    rest[texels] *= keep[:, None]
+    power = radiance * solid.ravel()[texels, None]
+    lights = np.zeros((light.max(initial=-1) + 1, 6))
+    np.add.at(lights[:, 3:], light, power)
+    lights[:, :3] = _mean_direction(directions.reshape(-1, 3)[texels], power @ LUMINANCE, light, len(lights))
+    excess = np.zeros((lum.size, 4))
+    excess[:, 3] = -1.0
+    excess[texels, :3], excess[texels, 3] = radiance, light
     dimmed = EnvironmentMap(rest.reshape(env.data.shape).astype(np.float32), env.name, env.path)
-    return dimmed, lights.astype(np.float32)
+    return MapLights(dimmed, lights.astype(np.float32), excess.reshape(*lum.shape, 4).astype(np.float32))
+
+
+def _mean_direction(directions: np.ndarray, weight: np.ndarray, group: np.ndarray, groups: int) -> np.ndarray:
+    """Each group's `weight`-weighted mean direction, normalised (its plain mean where its weight
+    is 0: a dark texel among the LIGHTS brightest of a dark map)."""
+    weighted, plain = np.zeros((groups, 3)), np.zeros((groups, 3))
+    np.add.at(weighted, group, directions * weight[:, None])
+    np.add.at(plain, group, directions)
+    mean = np.where((np.linalg.norm(weighted, axis=1) > 0.0)[:, None], weighted, plain)
+    return mean / np.linalg.norm(mean, axis=1, keepdims=True)
+
+
+def _blocks(bright: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The flat indices of the `bright` texels and each one's block (numbered 0, 1, …) in the
+    smallest b × b blocking of the map that leaves at most MAX_LIGHTS blocks with a bright texel."""
+    rows, cols = np.nonzero(bright)
+    width = bright.shape[1]
+    for b in range(2, max(bright.shape) + 1):
+        blocks = (rows // b) * (-(-width // b)) + cols // b
+        ids, light = np.unique(blocks, return_inverse=True)
+        if ids.size <= MAX_LIGHTS:
+            break
+    return rows * width + cols, light
 
 
 def build_stack(env: EnvironmentMap, key: str = "") -> PrefilteredStack:
     """Every layer of a map's stack and its lights (see the module docstring)."""
-    small, lights = bright_lights(reduced(env))
+    small, lights, excess = bright_lights(reduced(env))
     layers = build_layers(small, range(1 + len(KERNELS) * len(ALPHAS)))
-    return PrefilteredStack(np.stack([layers[i] for i in sorted(layers)]), key, lights)
+    return PrefilteredStack(np.stack([layers[i] for i in sorted(layers)]), key, lights, excess)
 
 
 def build_layers(small: EnvironmentMap, indices) -> dict[int, np.ndarray]:
@@ -254,6 +310,7 @@ class StackLayers:
 
     layers: dict[int, np.ndarray]
     lights: np.ndarray
+    excess: np.ndarray
 
     light_directions = PrefilteredStack.light_directions
     light_power = PrefilteredStack.light_power
@@ -275,8 +332,8 @@ def stack_layers(env: EnvironmentMap, indices) -> PrefilteredStack | StackLayers
     if stored is not None:
         _keep(stored)
         return stored
-    small, lights = bright_lights(reduced(env))
-    return StackLayers(build_layers(small, {0, *indices}), lights)
+    small, lights, excess = bright_lights(reduced(env))
+    return StackLayers(build_layers(small, {0, *indices}), lights, excess)
 
 
 _CACHE: OrderedDict[str, PrefilteredStack] = OrderedDict()
@@ -339,14 +396,16 @@ def read_stack(key: str) -> PrefilteredStack | None:
     stack of this layout (a damaged entry is built again, never trusted)."""
     try:
         with np.load(_stack_file(key), allow_pickle=False) as archive:
-            layers, lights = archive["layers"], archive["lights"]
+            layers, lights, excess = archive["layers"], archive["lights"], archive["excess"]
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
         return None
     layout = layers.ndim == 4 and layers.shape[0] == 1 + len(KERNELS) * len(ALPHAS) and layers.shape[3] == 3
     if not (layout and layers.dtype == np.float32 and lights.dtype == np.float32 and lights.ndim == 2
-            and lights.shape[1] == 6 and np.isfinite(layers).all() and np.isfinite(lights).all()):
+            and lights.shape[1] == 6 and excess.dtype == np.float32 and excess.shape == (*layers.shape[1:3], 4)
+            and excess[..., 3].max(initial=-1.0) < len(lights)
+            and np.isfinite(layers).all() and np.isfinite(lights).all() and np.isfinite(excess).all()):
         return None
-    return PrefilteredStack(layers, key, lights)
+    return PrefilteredStack(layers, key, lights, excess)
 
 
 def write_stack(stack: PrefilteredStack) -> None:
@@ -354,7 +413,7 @@ def write_stack(stack: PrefilteredStack) -> None:
     from brdflab.io.user_cache import store
 
     buffer = io.BytesIO()
-    np.savez(buffer, layers=stack.layers, lights=stack.lights)
+    np.savez(buffer, layers=stack.layers, lights=stack.lights, excess=stack.excess)
     store(_stack_file(stack.key), buffer.getvalue())
 
 
