@@ -3,7 +3,8 @@
 // β P + MIS[f·cos·L − β g], g a function of the direction whose integral is P — the irradiance
 // kernel × the diffuse shares, each lookup of the fitted lobes among the first four at the nearer
 // view cosine × its layer's kernel (over its integral), all × the stack's dimmed map texel by texel,
-// plus, in a light's texel, f·cos at the light's direction × the texel's excess. Needs shaders/prefiltered.glsl.
+// plus, in a light's texel, f·cos at the light's direction × the texel's excess (with the diffuse shares
+// taken apart where the lights are blocks). Needs shaders/prefiltered.glsl.
 uniform float u_cv_weight;              // β, fixed per material and map before any sample
 uniform vec3 u_cv_layer[PREF_LAYERS];   // per stack layer: (kernel family: 0 cosine, 1 Beckmann, 2 GGX, 3 Phong; α; 1 / ∫K, 0: no kernel)
 uniform sampler2D u_cv_excess;          // RGBA32F at the stack's texels: a light's excess radiance, its index (−1: none)
@@ -32,7 +33,7 @@ float cv_kernel(int family, vec2 shape, float c) {
 
 // this pixel's control: fills its lookups, returns its integral P
 vec3 cv_prepare(mat3 to_world, vec3 n, vec3 wo) {
-    vec3 exact = prefiltered_lights(to_world, wo);
+    vec3 exact = vec3(0.0);
     cv_diffuse = vec3(0.0);
     for (int m = 0; m < CV_FITTED * PREF_LOOKUPS; m++) {
         cv_shape[m] = vec2(1.0, 0.0);
@@ -57,7 +58,8 @@ vec3 cv_prepare(mat3 to_world, vec3 n, vec3 wo) {
             exact += scale * w * texture(u_pref_stack, vec3(env_uv(d, u_pref_rotation), layer)).rgb;
         }
     }
-    return exact + cv_diffuse * texture(u_pref_stack, vec3(env_uv(n, u_pref_rotation), 0.0)).rgb;
+    return exact + prefiltered_lights(to_world, n, wo, cv_diffuse)
+           + cv_diffuse * texture(u_pref_stack, vec3(env_uv(n, u_pref_rotation), 0.0)).rgb;
 }
 
 // whether map coordinates uv fall in a light's texel
@@ -72,9 +74,10 @@ vec3 cv_control(vec2 uv, vec3 d, vec3 n, mat3 to_world, vec3 wo) {
         weight += cv_coefficient[m] * cv_kernel(cv_family[m / PREF_LOOKUPS], cv_shape[m], dot(d, cv_direction[m]));
     vec3 g = weight * dimmed;
     vec4 excess = texelFetch(u_cv_excess, texel, 0);
-    if (excess.a >= 0.0) {
+    if (excess.a >= 0.0) {  // where the lights are blocks, the diffuse shares × the excess texel by texel
         vec3 wi = pref_light_local(int(excess.a + 0.5), to_world);
-        if (wi.z > 0.0) g += material_eval(wi, wo) * wi.z * excess.rgb;
+        if (wi.z > 0.0) g += (material_eval(wi, wo) - u_pref_blocks * cv_diffuse) * wi.z * excess.rgb;
+        g += u_pref_blocks * cv_diffuse * max(dot(n, d), 0.0) * excess.rgb;
     }
     return g;
 }

@@ -19,6 +19,7 @@ uniform float u_pref_fitted[N_LOBES];  // 1: lobe k is drawn by its fitted looku
 uniform float u_pref_rotation;         // the map's turn about +Y, radians
 uniform sampler2D u_pref_lights;      // RGB32F, count × 2: row 0 the lights' directions in the map's frame, row 1 their radiance × solid angle
 uniform int u_pref_light_count;
+uniform float u_pref_blocks;           // 1: the lights are blocks of texels (brdflab/lighting/prefilter.lit_in_blocks)
 
 // light j's direction in the pixel's local frame (the map's turn undone)
 vec3 pref_light_local(int j, mat3 to_world) {
@@ -27,14 +28,18 @@ vec3 pref_light_local(int j, mat3 to_world) {
     return vec3(c * m.x - s * m.z, m.y, s * m.x + c * m.z) * to_world;  // env_uv's turn undone, to local
 }
 
-// Σ over the lights of f(wi, wo) cos θi × power
-vec3 prefiltered_lights(mat3 to_world, vec3 wo) {
+// Σ over the lights of f(wi, wo) cos θi × power. Where the lights are blocks of texels
+// (u_pref_blocks), the diffuse shares' coefficient `diffuse` is lit by the excess's own irradiance
+// (the stack's last layer) and the lights by f less it (brdflab/lighting/split_sum.lights_term)
+vec3 prefiltered_lights(mat3 to_world, vec3 n, vec3 wo, vec3 diffuse) {
+    vec3 less = u_pref_blocks * diffuse;
     vec3 color = vec3(0.0);
     for (int j = 0; j < u_pref_light_count; j++) {
         vec3 wi = pref_light_local(j, to_world);
-        if (wi.z > 0.0) color += material_eval(wi, wo) * wi.z * texelFetch(u_pref_lights, ivec2(j, 1), 0).rgb;
+        if (wi.z > 0.0) color += (material_eval(wi, wo) - less) * wi.z * texelFetch(u_pref_lights, ivec2(j, 1), 0).rgb;
     }
-    return color;
+    float last = float(textureSize(u_pref_stack, 0).z - 1);
+    return color + less * texture(u_pref_stack, vec3(env_uv(n, u_pref_rotation), last)).rgb;
 }
 
 // lookup j of row `side` (0: the view cosine below wo's, 1: above) of lobe k's fitted mixture: its
@@ -85,9 +90,11 @@ vec3 pref_albedo(int k, vec3 wo) {
 
 vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
     vec3 irradiance = texture(u_pref_stack, vec3(env_uv(n, u_pref_rotation), 0.0)).rgb;
-    vec3 color = prefiltered_lights(to_world, wo);
+    vec3 color = vec3(0.0), diffuse = vec3(0.0);
     for (int k = 0; k < N_LOBES; k++) {
         vec4 layers = u_pref_layers[k];
+        vec3 scale = u_lobe_scale[k] * pref_albedo(k, wo);
+        diffuse += scale * layers.w / PI;
         vec3 light = layers.w * irradiance / PI;
         if (u_pref_fitted[k] > 0.5) light += mixture_light(k, to_world, wo);
         for (int j = 0; j < PREF_TAPS && layers.w < 1.0 && u_pref_fitted[k] < 0.5; j++) {
@@ -103,7 +110,7 @@ vec3 prefiltered_shade(mat3 to_world, vec3 n, vec3 wo) {
                               texture(u_pref_stack, vec3(uv, layers.y)).rgb, layers.z);
             light += (1.0 - layers.w) * tap.z * glossy;
         }
-        color += u_lobe_scale[k] * pref_albedo(k, wo) * light;
+        color += scale * light;
     }
-    return color;
+    return color + prefiltered_lights(to_world, n, wo, diffuse);
 }

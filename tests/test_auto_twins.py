@@ -43,6 +43,14 @@ def sun_map(width: int = 64, height: int = 32) -> EnvironmentMap:
     return EnvironmentMap(data, "sun", None)
 
 
+def window_map() -> EnvironmentMap:
+    """The sun map with a window of 270 bright texels: more than the stack's lights, so they are
+    lit in blocks (`prefilter.bright_lights`)."""
+    env = sun_map()
+    env.data[3:18, 20:38] = (300.0, 280.0, 250.0)
+    return env
+
+
 def material(*lobes) -> AnalyticMaterial:
     return AnalyticMaterial("pilot", "Linear", 3, list(lobes))
 
@@ -59,18 +67,19 @@ def renderer():
     return ObjectRenderer(create_context())
 
 
-@pytest.mark.parametrize("mode", ["fis", "mis", "mis control"])
+@pytest.mark.parametrize("mode", ["fis", "mis", "mis control", "mis control, blocks"])
 @pytest.mark.parametrize("count", [16, 256])
 def test_twin_reproduces_the_renderer(renderer, mode, count):
     """Sample set, lobe shares, samplers, mixture density, map sampling, MIS weights and
     lookups all match, and MIS's control (the fitted lobe's lookups and kernels, the diffuse
-    share's irradiance, the sun as a light, the weight β): any difference beyond float32
-    rounding would be another estimator."""
+    share's irradiance, the sun as a light, the weight β; under a window of more texels than
+    lights, its blocks and the diffuse share lit by the excess's irradiance): any difference
+    beyond float32 rounding would be another estimator."""
     mat = material(Lobe.create("Lambertian", [0.3, 0.2, 0.1]), Lobe.create("CookTorrance", [0.5] * 3, m=0.1, F0=0.5))
-    env = sun_map()
+    env = window_map() if mode.endswith("blocks") else sun_map()
     renderer.set_source(mat)
     renderer.set_environment(env)
-    settings = RenderSettings(mode.split()[0], SIZE, SIZE, samples=count, mis_control=mode == "mis control")
+    settings = RenderSettings(mode.split()[0], SIZE, SIZE, samples=count, mis_control=mode.startswith("mis control"))
     gpu = renderer.render(settings)[sphere_view(SIZE, SIZE).inside]
     if mode == "fis":
         twin = fis_pixels(mat, mat, [level.astype(float) for level in solid_angle_mips(env.data)], frames(SIZE), count)
@@ -79,9 +88,15 @@ def test_twin_reproduces_the_renderer(renderer, mode, count):
         control = (map_control(env, mat), renderer.control_weight()) if settings.mis_control else None
         if control is not None:
             assert 0.0 < control[1] <= 1.0 and control[0].excess[..., 3].max() >= 0  # the sun is one of the lights
+            assert control[0].stack.blocks == mode.endswith("blocks")
         twin = mis_pixels(mat, mat, env, environment_distribution(env), frames(SIZE), count,
                           pixel_shifts(cols, SIZE - 1 - rows), control)
-    assert np.abs(twin - gpu).max() <= 1e-4 * np.abs(gpu).max()
+    off = np.abs(twin - gpu) / np.abs(gpu).max()
+    if mode.endswith("blocks"):  # a sample on a texel's edge can fall in float32 into the next texel, of another
+        # block (one pixel at 16 samples: 1.6e-4; 99 % within 4e-5); g without the blocks' diffuse shares is 1.4–7.9e-3 off
+        assert np.quantile(off, 0.99) <= 1e-4 and off.max() <= 5e-4
+    else:
+        assert off.max() <= 1e-4
 
 
 @needs_shared("merl_slices", "gold-metallic-paint3.slice")

@@ -127,19 +127,23 @@ def test_a_map_met_for_the_first_time_is_judged_without_building_its_stack():
     assert first.as_dict() == again.as_dict()
 
 
-def test_some_layers_of_a_stack_are_its_layers_bit_for_bit():
+@pytest.mark.parametrize("name", ["room-one-window", "studio-two-boxes"])  # the second's lights are blocks
+def test_some_layers_of_a_stack_are_its_layers_bit_for_bit(name):
     from brdflab.lighting import prefilter
 
-    env = spec("room-one-window").build(128, 64)
+    env = spec(name).build(128, 64)
     prefilter._CACHE.clear()
     wanted = {prefilter.layer_of("ggx", 7), prefilter.layer_of("phong", 0), prefilter.layer_of("beckmann", 12)}
     some = prefilter.stack_layers(env, wanted)
     whole = prefilter.build_stack(env)
-    assert sorted(some.layers) == sorted({0, *wanted})
+    assert sorted(some.layers) == sorted({0, prefilter.EXCESS_IRRADIANCE, *wanted})
     for index, layer in some.layers.items():
         assert np.array_equal(layer, whole.layers[index]), index
     assert np.array_equal(some.light_directions, whole.light_directions)
     assert np.array_equal(some.light_power, whole.light_power)
+    assert np.array_equal(some.excess, whole.excess)
+    assert some.blocks == whole.blocks == (name == "studio-two-boxes")
+    assert whole.excess_irradiance().any() == whole.blocks
 
 
 def test_lambertian_under_a_smooth_map_is_cheap_and_within_tolerance(renderer):

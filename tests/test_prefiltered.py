@@ -120,13 +120,18 @@ def test_layer_blend_brackets_the_roughness():
         assert a_lo <= min(alpha, 1.0) <= a_hi and 0.0 <= t <= 1.0
 
 
-def test_the_gpu_draws_what_its_numpy_twin_computes(renderer):
+@pytest.mark.parametrize("window", [False, True])
+def test_the_gpu_draws_what_its_numpy_twin_computes(renderer, window):
     """shaders/prefiltered.glsl against lighting/split_sum.prefiltered_image, every kind of lobe
     (anisotropic ones' taps and albedo over φo included, and a rough GGX lobe's fitted lookups,
-    lighting/view_mixture.py) under a map with a sun (the lights),
+    lighting/view_mixture.py) under a map with a sun (the lights), and with a window of more
+    bright texels than lights (lit in blocks, the diffuse share by the excess's irradiance),
     turned by 45° on the GPU against the map's columns turned in NumPy."""
     data = np.random.default_rng(2).gamma(0.7, 1.0, (32, 64, 3)).astype(np.float32)
     data[10, 20] = 5000.0
+    if window:
+        data[4:19, 30:48] = 300.0
+    assert prefilter.bright_lights(EnvironmentMap(data)).blocks == window
     mat = material(Lobe.create("Lambertian", [0.1, 0.2, 0.3]), Lobe.create("Phong", [0.3] * 3, Exponent=40.0),
                    Lobe.create("LafortuneIso", [0.2] * 3, Cxy=0.6, Cz=0.5, Exponent=8.0),
                    Lobe.create("Strauss", [0.5] * 3, smoothness=0.7), Lobe.create("Ward", [0.3] * 3, ax=0.05, ay=0.3),

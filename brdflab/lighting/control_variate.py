@@ -12,7 +12,9 @@ direction whose integral over the sphere is P, exactly:
   lookups' directions;
 - for each of the stack's lights (the excess of a bright texel, or of a block of them, over the
   dimmed map), f·cos at the light's direction × the excess inside its texels: its integral is
-  the prefiltered mode's sum over its lights.
+  the prefiltered mode's sum over its lights. Where the lights are blocks, f less the diffuse
+  shares' coefficient at the light, and the diffuse kernel × the excess texel by texel, whose
+  integral is the stack's irradiance of the excess (a Lambertian's g is then f·cos·L itself).
 So P is close to the prefiltered mode's image, less its glossy and anisotropic lobes' taps
 (which, not close to their lobes sample by sample, added variance: docs/mis.md). The estimate is unbiased
 for any g with a known integral and any weight β fixed before the samples are drawn: below a
@@ -58,11 +60,12 @@ def fitted_in_control(material: AnalyticMaterial) -> int:
 
 
 def layer_families() -> list[tuple[int, float]]:
-    """Per stack layer: (family index in FAMILIES, its α; −1 for a layer that is the map itself)."""
+    """Per stack layer: (family index in FAMILIES, its α; −1 for a layer that is the map itself);
+    the first and the last are irradiances (the dimmed map's, the lights' excess's)."""
     out = [(0, 0.0)]
     for kernel in KERNELS:
         out += [(FAMILIES.index(kernel), alpha) if alpha > 0.0 else (-1, 0.0) for alpha in ALPHAS]
-    return out
+    return out + [(0, 0.0)]
 
 
 def kernel_values(family: int, alpha, c: np.ndarray) -> np.ndarray:
@@ -147,8 +150,12 @@ def pixel_control(material: AnalyticMaterial, stack: PrefilteredStack | StackLay
     centres = stack.light_directions.astype(float)
     light, pixel, f, cosine = texel_f_cos(material if lit is None else lit, centres, (t, b, n), wo)
     lights = np.zeros((len(n), len(centres), 3))
+    if stack.blocks:  # the diffuse shares lit by the excess's irradiance, the lights by the rest (`lights_term`)
+        f = f - diffuse[pixel]
     lights[pixel, light] = f * cosine[:, None]
     exact = diffuse * sample_latlong(stack.irradiance(), n) + np.einsum("plc,lc->pc", lights, stack.light_power.astype(float))
+    if stack.blocks:
+        exact += diffuse * sample_latlong(stack.excess_irradiance(), n)
     for k in np.unique(layers):
         at = np.where((layers == k)[..., None], coefficients, 0.0)
         exact += (at * sample_latlong(stack.layers[k], directions)).sum(1)
@@ -178,6 +185,9 @@ def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers,
     if hit.any():
         pixel = np.broadcast_to(np.arange(len(n))[:, None], light.shape)[hit]
         g[hit] += control.lights[pixel, light[hit]] * excess[rows[hit], cols[hit], :3]
+        if stack.blocks:  # the diffuse shares × the excess texel by texel (`pixel_control`)
+            cosine = np.maximum(np.einsum("psc,pc->ps", world, n), 0.0)[hit]
+            g[hit] += control.diffuse[pixel] * cosine[:, None] * excess[rows[hit], cols[hit], :3]
     return g
 
 

@@ -56,6 +56,8 @@ CACHE_SIZE = 4
 LIGHTS = 32  # at least this many of the brightest texels are lit exactly
 MAX_LIGHTS = 256  # at most (shaders/prefiltered.glsl loops over them: ~0.1 ms per light of a 256² frame)
 LIGHT_CONTRAST = 4.0  # a texel this many times the map's mean luminance is a light
+EXCESS_IRRADIANCE = 1 + len(KERNELS) * len(ALPHAS)  # the stack's last layer (`MapLights.blocks`)
+STACK_LAYERS = EXCESS_IRRADIANCE + 1
 
 
 def beckmann_kernel(cos_h: np.ndarray, alpha: float) -> np.ndarray:
@@ -77,7 +79,8 @@ KERNEL_FUNCTIONS = {"beckmann": beckmann_kernel, "ggx": ggx_kernel}
 @dataclass(frozen=True)
 class PrefilteredStack:
     """Layers (L, H, W, 3) float32, lat-long, row 0 at the top: layer 0 the irradiance,
-    then len(ALPHAS) layers per kernel in KERNELS order (the first of each: the map)."""
+    then len(ALPHAS) layers per kernel in KERNELS order (the first of each: the map), then the
+    irradiance of the lights' excess (EXCESS_IRRADIANCE; 0 unless they are blocks)."""
 
     layers: np.ndarray
     key: str
@@ -101,8 +104,17 @@ class PrefilteredStack:
     def height(self) -> int:
         return self.layers.shape[1]
 
+    @property
+    def blocks(self) -> bool:
+        """Whether its lights are blocks of texels (`lit_in_blocks`)."""
+        return lit_in_blocks(self.lights, self.excess)
+
     def irradiance(self) -> np.ndarray:
         return self.layers[0]
+
+    def excess_irradiance(self) -> np.ndarray:
+        """The irradiance of the lights' excess where they are blocks (0 where they are not)."""
+        return self.layers[EXCESS_IRRADIANCE]
 
     def layer(self, kernel: str, alpha_index: int) -> np.ndarray:
         return self.layers[layer_of(kernel, alpha_index)]
@@ -220,6 +232,18 @@ class MapLights(NamedTuple):
     lights: np.ndarray
     excess: np.ndarray
 
+    @property
+    def blocks(self) -> bool:
+        return lit_in_blocks(self.lights, self.excess)
+
+
+def lit_in_blocks(lights: np.ndarray, excess: np.ndarray) -> bool:
+    """Whether a map's lights are blocks of texels (more texels gave a light their excess than
+    there are lights). A light at a block's mean direction is not its texels' irradiance, so the
+    shading then lights the diffuse shares by the excess's own irradiance (the stack's
+    EXCESS_IRRADIANCE layer) and the lights by the material less those shares."""
+    return int(np.count_nonzero(excess[..., 3] >= 0.0)) > len(lights)
+
 
 def bright_lights(env: EnvironmentMap, count: int | None = None) -> MapLights:
     """The map's brightest texels (by luminance) as lights. Each of the `count` (default:
@@ -282,25 +306,33 @@ def _blocks(bright: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def build_stack(env: EnvironmentMap, key: str = "") -> PrefilteredStack:
     """Every layer of a map's stack and its lights (see the module docstring)."""
-    small, lights, excess = bright_lights(reduced(env))
-    layers = build_layers(small, range(1 + len(KERNELS) * len(ALPHAS)))
-    return PrefilteredStack(np.stack([layers[i] for i in sorted(layers)]), key, lights, excess)
+    split = bright_lights(reduced(env))
+    layers = build_layers(split, range(STACK_LAYERS))
+    return PrefilteredStack(np.stack([layers[i] for i in sorted(layers)]), key, split.lights, split.excess)
 
 
-def build_layers(small: EnvironmentMap, indices) -> dict[int, np.ndarray]:
-    """The stack's layers `indices` of the dimmed, reduced map `small`, by index (`layer_of`):
-    each is the same quadrature whether built alone or with the whole stack (the convolution
-    of one output row does not depend on the other kernels)."""
+def build_layers(split: MapLights, indices) -> dict[int, np.ndarray]:
+    """The stack's layers `indices`, by index (`layer_of`), of the reduced map split by
+    `bright_lights`: each is the same quadrature whether built alone or with the whole stack
+    (the convolution of one output row does not depend on the other kernels). The last,
+    EXCESS_IRRADIANCE, is the irradiance of the lights' excess where they are blocks, else 0."""
+    small = split.dimmed
     indices = sorted(set(indices))
+    layers: dict[int, np.ndarray] = {}
+    if EXCESS_IRRADIANCE in indices:
+        indices.remove(EXCESS_IRRADIANCE)
+        excess = EnvironmentMap(np.ascontiguousarray(split.excess[..., :3]), small.name, small.path)
+        layers[EXCESS_IRRADIANCE] = (np.maximum(convolve(excess, [(cosine_kernel, False)])[0], 0.0) if split.blocks
+                                     else np.zeros(small.data.shape, np.float32))
     per_kernel = len(ALPHAS)
     mirrors = [i for i in indices if i > 0 and (i - 1) % per_kernel == 0]  # α = 0: the map itself
     convolved = [i for i in indices if i not in mirrors]
     kernels = [(cosine_kernel, False) if i == 0 else
                (specular_kernel(KERNELS[(i - 1) // per_kernel], ALPHAS[(i - 1) % per_kernel]), True)
                for i in convolved]
-    layers = dict(zip(convolved, convolve(small, kernels) if kernels else []))
+    layers.update(zip(convolved, convolve(small, kernels) if kernels else []))
     layers.update({i: small.data.astype(np.float32) for i in mirrors})
-    return {i: np.maximum(layers[i], 0.0) for i in indices}  # FFT round-off can dip below 0
+    return {i: np.maximum(layer, 0.0) for i, layer in layers.items()}  # FFT round-off can dip below 0
 
 
 @dataclass(frozen=True)
@@ -314,9 +346,13 @@ class StackLayers:
 
     light_directions = PrefilteredStack.light_directions
     light_power = PrefilteredStack.light_power
+    blocks = PrefilteredStack.blocks
 
     def irradiance(self) -> np.ndarray:
         return self.layers[0]
+
+    def excess_irradiance(self) -> np.ndarray:
+        return self.layers[EXCESS_IRRADIANCE]
 
 
 def stack_layers(env: EnvironmentMap, indices) -> PrefilteredStack | StackLayers:
@@ -332,8 +368,8 @@ def stack_layers(env: EnvironmentMap, indices) -> PrefilteredStack | StackLayers
     if stored is not None:
         _keep(stored)
         return stored
-    small, lights, excess = bright_lights(reduced(env))
-    return StackLayers(build_layers(small, {0, *indices}), lights, excess)
+    split = bright_lights(reduced(env))
+    return StackLayers(build_layers(split, {0, EXCESS_IRRADIANCE, *indices}), split.lights, split.excess)
 
 
 _CACHE: OrderedDict[str, PrefilteredStack] = OrderedDict()
@@ -399,7 +435,7 @@ def read_stack(key: str) -> PrefilteredStack | None:
             layers, lights, excess = archive["layers"], archive["lights"], archive["excess"]
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
         return None
-    layout = layers.ndim == 4 and layers.shape[0] == 1 + len(KERNELS) * len(ALPHAS) and layers.shape[3] == 3
+    layout = layers.ndim == 4 and layers.shape[0] == STACK_LAYERS and layers.shape[3] == 3
     if not (layout and layers.dtype == np.float32 and lights.dtype == np.float32 and lights.ndim == 2
             and lights.shape[1] == 6 and excess.dtype == np.float32 and excess.shape == (*layers.shape[1:3], 4)
             and excess[..., 3].max(initial=-1.0) < len(lights)

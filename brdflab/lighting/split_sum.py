@@ -207,6 +207,28 @@ def mixture_light(mixture: np.ndarray, stack, n: np.ndarray, t: np.ndarray, b: n
     return light
 
 
+def diffuse_coefficient(splits: list, material: AnalyticMaterial, wo: np.ndarray) -> np.ndarray:
+    """(pixels, 3): what the material's diffuse shares make of the irradiance, Σ scale × albedo(wo)
+    × diffuse share / π over its lobes."""
+    return sum((rgb * albedo_at(split.albedo, wo) * split.diffuse_share / np.pi
+                for split, rgb in zip(splits, material.rgb_scales())), np.zeros((len(wo), 3)))
+
+
+def lights_term(lit, stack, frames, diffuse: np.ndarray) -> np.ndarray:
+    """(pixels, 3): the stack's lights, the material `lit` evaluated at each. Where they are blocks
+    of texels (`prefilter.lit_in_blocks`) the diffuse shares (`diffuse`) are lit by the excess's own
+    irradiance instead, exact as the irradiance layer is, and the lights by the material less them."""
+    from brdflab.lighting.reference_view import by_texel_centres
+
+    n, t, b = frames
+    wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)
+    directions, power = stack.light_directions.astype(float), stack.light_power.astype(float)
+    colour = by_texel_centres(lit, directions, power, (t, b, n), wo)
+    if stack.blocks:
+        colour += diffuse * (sample_latlong(stack.excess_irradiance(), n) - np.maximum(n @ directions.T, 0.0) @ power)
+    return colour
+
+
 def prefiltered_image(material: AnalyticMaterial, env: EnvironmentMap, width: int, height: int,
                       stack: PrefilteredStack | None = None) -> np.ndarray:
     """The prefiltered mode's image in the reference view, computed in NumPy."""
@@ -224,14 +246,12 @@ def prefiltered_pixels(material: AnalyticMaterial, stack: PrefilteredStack, fram
     (normal, tangent, bitangent), each (pixels, 3): the split sum of the stack's dimmed map
     plus the stack's lights, evaluated with `lit` (the material itself unless given: a
     measured source, whose table the renderer evaluates at the lights)."""
-    from brdflab.lighting.reference_view import by_texel_centres
-
     n, t, b = frames
     wo = np.stack([t[:, 2], b[:, 2], n[:, 2]], -1)  # wo = +Z (world) in each pixel's frame
     irradiance = sample_latlong(stack.irradiance(), n)
-    colour = by_texel_centres(material if lit is None else lit, stack.light_directions.astype(float),
-                              stack.light_power.astype(float), (t, b, n), wo)
-    for split, rgb in zip(material_split(material), material.rgb_scales()):
+    splits = material_split(material)
+    colour = lights_term(material if lit is None else lit, stack, frames, diffuse_coefficient(splits, material, wo))
+    for split, rgb in zip(splits, material.rgb_scales()):
         albedo = albedo_at(split.albedo, wo)
         light = split.diffuse_share * irradiance / np.pi
         if split.mixture is not None:

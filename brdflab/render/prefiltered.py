@@ -28,7 +28,7 @@ class PrefilteredLighting:
 
     def __init__(self, ctx: moderngl.Context) -> None:
         self.ctx = ctx
-        self._stack: tuple[EnvironmentMap, moderngl.TextureArray, moderngl.Texture, int] | None = None  # (map, layers, lights, count)
+        self._stack: tuple[EnvironmentMap, moderngl.TextureArray, moderngl.Texture, int, float] | None = None  # (map, layers, lights, count, blocks)
         self._albedo: tuple[tuple, moderngl.Texture, moderngl.Texture, dict] | None = None  # (key, albedo, mixtures, uniforms)
         self._splits: tuple[tuple, list] | None = None  # (material key, material_split) made elsewhere
         self._excess: tuple[EnvironmentMap, moderngl.Texture] | None = None  # MIS's control, per map
@@ -39,8 +39,9 @@ class PrefilteredLighting:
 
         return (self._stack is not None and self._stack[0] is env) or is_cached(env)
 
-    def _stack_texture(self, env: EnvironmentMap) -> tuple[moderngl.TextureArray, moderngl.Texture, int]:
-        """The stack's layers, its lights as a texture (count × 2: directions, powers) and their count."""
+    def _stack_texture(self, env: EnvironmentMap) -> tuple[moderngl.TextureArray, moderngl.Texture, int, float]:
+        """The stack's layers, its lights as a texture (count × 2: directions, powers), their count
+        and whether they are blocks of texels (1.0)."""
         from brdflab.lighting.prefilter import prefiltered_stack
 
         if self._stack is None or self._stack[0] is not env:
@@ -55,7 +56,7 @@ class PrefilteredLighting:
             rows[0, :count], rows[1, :count] = stack.lights[:, :3], stack.lights[:, 3:]
             lights = self.ctx.texture((rows.shape[1], 2), 3, rows.tobytes(), dtype="f4")
             lights.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self._stack = (env, tex, lights, count)
+            self._stack = (env, tex, lights, count, float(stack.blocks))
         return self._stack[1:]
 
     @staticmethod
@@ -121,7 +122,7 @@ class PrefilteredLighting:
 
         if env is None:
             raise BRDFLabError("no environment map for the prefiltered lighting mode")
-        stack, lights, count = self._stack_texture(env)
+        stack, lights, count, blocks = self._stack_texture(env)
         stack.use(STACK_UNIT)
         lights.use(LIGHTS_UNIT)
         albedo, mixtures, uniforms = self._albedo_texture(material)
@@ -129,7 +130,7 @@ class PrefilteredLighting:
         mixtures.use(MIXTURE_UNIT)
         values = {"u_pref_stack": STACK_UNIT, "u_pref_albedo": ALBEDO_UNIT, "u_pref_mixture": MIXTURE_UNIT,
                   "u_pref_rotation": math.radians(rotation_degrees), **uniforms,
-                  "u_pref_lights": LIGHTS_UNIT, "u_pref_light_count": count}
+                  "u_pref_lights": LIGHTS_UNIT, "u_pref_light_count": count, "u_pref_blocks": blocks}
         for name, value in values.items():
             if name not in program:
                 continue
