@@ -358,7 +358,7 @@ class StackLayers:
 def stack_layers(env: EnvironmentMap, indices) -> PrefilteredStack | StackLayers:
     """The map's stack where it is in memory or in the user's cache; otherwise only its layers
     `indices` (and the irradiance) built, and not kept: Render Auto predicts one material's
-    prefiltered image from 3–5 of the stack's 37 layers, ~10× less than building the stack
+    prefiltered image from 3–6 of the stack's 41 layers, ~10× less than building the stack
     (1.3–2 s) for a map it meets for the first time."""
     key = map_key(env)
     known = _in_memory(key)
