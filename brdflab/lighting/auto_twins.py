@@ -237,7 +237,7 @@ def fis_pixels(source, proxy, levels: list[np.ndarray], frames, count: int) -> n
 
 
 def mis_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int,
-               shifts: np.ndarray | None = None, control: tuple | None = None) -> np.ndarray:
+               shifts: np.ndarray | None = None, control: tuple | None = None, terms=None) -> np.ndarray:
     """The MIS mode's RGB value (pixels, 3) at each pilot pixel with `count` samples: the
     renderer's own set (`mis_sample_set`: half from the lobes, half from the map's luminance
     `dist`) shifted per pixel as the shader does, Veach's multi-sample estimator with the power
@@ -245,18 +245,19 @@ def mis_pixels(source, proxy, env: EnvironmentMap, dist, frames, count: int,
     (`pixel_shifts`); by default the shifts of pixels (0, 0), (1, 0), … (pilot pixels are
     not window pixels; what matters is that each has its own, as each pixel does).
     `control` (a `control_variate.MapControl`, its weight β): the estimate with the prefiltered
-    control, β P + MIS[f·cos·L − β g]."""
+    control, β P + MIS[f·cos·L − β g]; `terms`: its `pixel_control` at these pixels, if made before."""
     plain, controlled, exact = mis_parts(source, proxy, env, dist, frames, count, shifts,
-                                         None if control is None or control[1] == 0.0 else control[0])
+                                         None if control is None or control[1] == 0.0 else control[0], terms)
     return plain if exact is None else plain + control[1] * (exact - controlled)
 
 
 def mis_parts(source, proxy, env: EnvironmentMap, dist, frames, count: int, shifts: np.ndarray | None = None,
-              control=None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+              control=None, terms=None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """MIS's estimate of the pixels (`mis_pixels` without a control), and with a
     `control_variate.MapControl` the same samples' estimate of the control and the control's
     integral (each (pixels, 3)), from which the estimate at any weight β is made (β is chosen
-    by `control_weight` from these, on draws of their own)."""
+    by `control_weight` from these, on draws of their own); `terms`: the control at these pixels
+    (`pixel_control`), made here unless given."""
     from brdflab.lighting.control_variate import control_values, pixel_control
     from brdflab.lighting.sampling_sets import mis_sample_set, pixel_shifts
 
@@ -283,7 +284,7 @@ def mis_parts(source, proxy, env: EnvironmentMap, dist, frames, count: int, shif
     plain = (_f_cos(source, frames, wi) * radiance * weight[..., None]).sum(axis=1) / len(data)
     if control is None:
         return plain, None, None
-    terms = pixel_control(proxy, control.stack, frames, lit=source)
+    terms = pixel_control(proxy, control.stack, frames, lit=source) if terms is None else terms
     g = control_values(terms, control.stack, control.excess, frames, world)
     return plain, (g * weight[..., None]).sum(axis=1) / len(data), terms.exact
 
@@ -303,7 +304,9 @@ def control_draws(source, proxy, env: EnvironmentMap, control, dist=None,
 
     pixels = pixels or fis_pixels_of(env)
     dist = dist or environment_distribution(env)
-    estimate = lambda part, shifts: np.stack(mis_parts(source, proxy, env, dist, part, CONTROL_SAMPLES, shifts, control), 1)
+    terms = pilot_control(source, proxy, control, pixels.frames)
+    estimate = lambda part, shifts, rows: np.stack(mis_parts(source, proxy, env, dist, part, CONTROL_SAMPLES, shifts,
+                                                             control, terms.take(rows)), 1)
     stacked = independent_draws(estimate, pixels.frames, CONTROL_SAMPLES,
                                 range(CONTROL_FAMILY, CONTROL_FAMILY + CONTROL_DRAWS))
     return [(parts[:, 0], parts[:, 1], parts[:, 2]) for parts in stacked]
@@ -504,19 +507,32 @@ def mis_draws(source, proxy, env: EnvironmentMap, count: int, pilot: ViewPilot,
     image is one draw, and under a sun a draw's error is heavy-tailed (a measured paint at 256
     samples: 0.6–6.5 % from one image to the next); one pilot draw predicted 0.67 % where the
     image came out 7.5 %, the RMS of six draws 5.0 % against the images' 3.3 %."""
-    estimate = lambda part, shifts: mis_pixels(source, proxy, env, pilot.dist, part, count, shifts, control)
+    controlled = control is not None and control[1] != 0.0
+    terms = pilot_control(source, proxy, control[0], pilot.pixels.frames) if controlled else None
+    estimate = lambda part, shifts, rows: mis_pixels(source, proxy, env, pilot.dist, part, count, shifts, control,
+                                                     terms.take(rows) if controlled else None)
     return independent_draws(estimate, pilot.pixels.frames, count, range(MIS_DRAWS))
 
 
+def pilot_control(source, proxy, control, frames):
+    """The control (`control_variate.pixel_control`) at the pilot pixels, made once for all of a
+    set's draws and pieces (made per piece and draw, it was a quarter of a car paint's choice
+    under a map whose lights are blocks)."""
+    from brdflab.lighting.control_variate import pixel_control
+
+    return pixel_control(proxy, control.stack, frames, lit=source)
+
+
 def independent_draws(estimate: Callable[..., np.ndarray], frames, count: int, families) -> list[np.ndarray]:
-    """`estimate(frames, shifts)` of every pilot pixel at `count` samples, one draw per shift
-    family (`pixel_shifts`: within a family each pixel has its own shift), made in pieces two
-    at a time (`in_pieces`, `side_by_side_pieces`)."""
+    """`estimate(frames, shifts, rows)` of every pilot pixel at `count` samples (`rows`: the
+    piece's indices among the pilot pixels), one draw per shift family (`pixel_shifts`: within a
+    family each pixel has its own shift), made in pieces two at a time (`in_pieces`,
+    `side_by_side_pieces`)."""
     from brdflab.lighting.sampling_sets import pixel_shifts
 
     pixels = len(frames[0])
-    return side_by_side_pieces([in_pieces(estimate, frames, count, pixel_shifts(np.arange(pixels), np.full(pixels, family)))
-                                for family in families])
+    return side_by_side_pieces([in_pieces(estimate, frames, count, pixel_shifts(np.arange(pixels), np.full(pixels, family)),
+                                          np.arange(pixels)) for family in families])
 
 
 def draws_error(pilot: ViewPilot, images: list[np.ndarray]) -> float:

@@ -116,6 +116,11 @@ class PixelControl:
     coefficients: np.ndarray
     lights: np.ndarray  # (pixels, lights, 3): f·cos at each of the stack's lights (0 below the horizon)
 
+    def take(self, rows: np.ndarray) -> "PixelControl":
+        """The control at some of its pixels (`rows`, indices into them)."""
+        return PixelControl(*(np.take(part, rows, axis=0) for part in (self.exact, self.diffuse, self.layers,
+                                                                       self.directions, self.coefficients, self.lights)))
+
 
 def fitted_lookups(material: AnalyticMaterial, frames) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(irradiance coefficient (pixels, 3), layers, directions, coefficients) of g at pixels whose
@@ -186,7 +191,7 @@ def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers,
         pixel = np.broadcast_to(np.arange(len(n))[:, None], light.shape)[hit]
         g[hit] += control.lights[pixel, light[hit]] * excess[rows[hit], cols[hit], :3]
         if stack.blocks:  # the diffuse shares × the excess texel by texel (`pixel_control`)
-            cosine = np.maximum(np.einsum("psc,pc->ps", world, n), 0.0)[hit]
+            cosine = np.maximum(np.einsum("sc,sc->s", world[hit], n[pixel]), 0.0)
             g[hit] += control.diffuse[pixel] * cosine[:, None] * excess[rows[hit], cols[hit], :3]
     return g
 
@@ -208,9 +213,10 @@ class MapControl:
     excess: np.ndarray
 
 
-def map_control(env, material: AnalyticMaterial) -> MapControl:
-    """The map's stack where it is built, else the layers `material`'s control reads."""
+def map_control(env, material: AnalyticMaterial, stack: PrefilteredStack | StackLayers | None = None) -> MapControl:
+    """The control on `stack` (default: the map's stack where it is built, else the layers
+    `material`'s control reads; one that holds them)."""
     from brdflab.lighting.prefilter import stack_layers
 
-    stack = stack_layers(env, control_layers(material))
+    stack = stack_layers(env, control_layers(material)) if stack is None else stack
     return MapControl(stack, excess_radiance(stack))
