@@ -155,11 +155,10 @@ def pixel_control(material: AnalyticMaterial, stack: PrefilteredStack | StackLay
     centres = stack.light_directions.astype(float)
     light, pixel, f, cosine = texel_f_cos(material if lit is None else lit, centres, (t, b, n), wo)
     lights = np.zeros((len(n), len(centres), 3))
-    if stack.blocks:  # the diffuse shares lit by the excess's irradiance, the lights by the rest (`lights_term`)
-        f = f - diffuse[pixel]
-    lights[pixel, light] = f * cosine[:, None]
+    blocks = stack.blocks  # the diffuse shares then lit by the excess's irradiance, the lights by the rest (`lights_term`)
+    lights[pixel, light] = (f - diffuse[pixel] if blocks else f) * cosine[:, None]
     exact = diffuse * sample_latlong(stack.irradiance(), n) + np.einsum("plc,lc->pc", lights, stack.light_power.astype(float))
-    if stack.blocks:
+    if blocks:
         exact += diffuse * sample_latlong(stack.excess_irradiance(), n)
     for k in np.unique(layers):
         at = np.where((layers == k)[..., None], coefficients, 0.0)
@@ -173,7 +172,8 @@ def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers,
     × the dimmed map texel by texel, plus, in a light's texel, f·cos at the light × the texel's excess."""
     n, t, b = frames
     rows, cols = texel_of(world, *excess.shape[:2])
-    weight = control.diffuse[:, None] * np.maximum(np.einsum("psc,pc->ps", world, n), 0.0)[..., None]
+    diffuse = control.diffuse[:, None] * np.maximum(np.einsum("psc,pc->ps", world, n), 0.0)[..., None]
+    weight = diffuse
     if control.layers.shape[1]:
         family, alpha, inverse = np.moveaxis(layer_kernels()[control.layers], -1, 0)  # each (pixels, M)
         inverse = np.where((control.coefficients != 0.0).any(-1), inverse, 0.0)  # a row's empty lookups: none
@@ -183,16 +183,16 @@ def control_values(control: PixelControl, stack: PrefilteredStack | StackLayers,
             with np.errstate(divide="ignore", invalid="ignore"):  # another family's α (masked below) may be 0
                 kernel = kernel_values(int(kind), alpha[:, None], cosines) * inverse[:, None]
             values += np.where(((family == kind) & (inverse > 0.0))[:, None], kernel, 0.0)
-        weight += np.matmul(values, control.coefficients)
+        weight = diffuse + np.matmul(values, control.coefficients)
     g = weight * stack.layers[DIMMED_LAYER][rows, cols].astype(float)
     light = excess[rows, cols, 3].astype(int)
     hit = light >= 0
     if hit.any():
         pixel = np.broadcast_to(np.arange(len(n))[:, None], light.shape)[hit]
-        g[hit] += control.lights[pixel, light[hit]] * excess[rows[hit], cols[hit], :3]
-        if stack.blocks:  # the diffuse shares × the excess texel by texel (`pixel_control`)
-            cosine = np.maximum(np.einsum("sc,sc->s", world[hit], n[pixel]), 0.0)
-            g[hit] += control.diffuse[pixel] * cosine[:, None] * excess[rows[hit], cols[hit], :3]
+        at_light = control.lights[pixel, light[hit]]
+        if stack.blocks:  # the diffuse shares × the excess texel by texel too (`pixel_control`)
+            at_light = at_light + diffuse[hit]
+        g[hit] += at_light * excess[rows[hit], cols[hit], :3]
     return g
 
 

@@ -212,12 +212,6 @@ def specular_kernel(kernel: str, alpha: float):
     return lambda c: d(np.sqrt(0.5 * (1.0 + c)), alpha) * np.maximum(c, 0.0)
 
 
-def light_count(lum: np.ndarray, solid: np.ndarray) -> int:
-    """How many of a map's texels are lit exactly: those LIGHT_CONTRAST times brighter than the
-    map's mean luminance (by solid angle), at least LIGHTS, at most MAX_LIGHTS."""
-    return int(np.clip(np.count_nonzero(lum > LIGHT_CONTRAST * mean_luminance(lum, solid)), LIGHTS, MAX_LIGHTS))
-
-
 def mean_luminance(lum: np.ndarray, solid: np.ndarray) -> float:
     """The map's mean luminance over the sphere (by solid angle)."""
     return float((lum * solid).sum() / np.broadcast_to(solid, lum.shape).sum())
@@ -232,9 +226,7 @@ class MapLights(NamedTuple):
     lights: np.ndarray
     excess: np.ndarray
 
-    @property
-    def blocks(self) -> bool:
-        return lit_in_blocks(self.lights, self.excess)
+    blocks = PrefilteredStack.blocks
 
 
 def lit_in_blocks(lights: np.ndarray, excess: np.ndarray) -> bool:
@@ -246,9 +238,10 @@ def lit_in_blocks(lights: np.ndarray, excess: np.ndarray) -> bool:
 
 
 def bright_lights(env: EnvironmentMap, count: int | None = None) -> MapLights:
-    """The map's brightest texels (by luminance) as lights. Each of the `count` (default:
-    `light_count`) brightest is dimmed to the next one's luminance, and its excess is a light at
-    its texel's centre. A bright area of more than MAX_LIGHTS texels above the contrast (a
+    """The map's brightest texels (by luminance) as lights. Each of the `count` brightest (default:
+    those LIGHT_CONTRAST times brighter than the map's mean luminance, at least LIGHTS, at most
+    MAX_LIGHTS) is dimmed to the next one's luminance, and its excess is a light at its texel's
+    centre. A bright area of more than MAX_LIGHTS texels above the contrast (a
     studio's soft boxes, a forest's sky) would keep nearly all its power in the layers that way
     (equal texels dimmed to each other's level), where the lobe's kernel blurs it across the
     surface's horizon; its texels are dimmed to the contrast's level instead, and their excess
@@ -258,11 +251,12 @@ def bright_lights(env: EnvironmentMap, count: int | None = None) -> MapLights:
     directions, solid = env.texel_directions()
     solid = np.broadcast_to(solid, lum.shape)
     level = LIGHT_CONTRAST * mean_luminance(lum, solid)
-    if count is None and np.count_nonzero(lum > level) > MAX_LIGHTS:
+    above = int(np.count_nonzero(lum > level))
+    if count is None and above > MAX_LIGHTS:
         texels, light = _blocks(lum > level)
     else:
         order = np.argsort(lum, axis=None)[::-1]
-        count = min(light_count(lum, solid) if count is None else count, lum.size - 1)
+        count = min(int(np.clip(above, LIGHTS, MAX_LIGHTS)) if count is None else count, lum.size - 1)
         level = lum.flat[order[count]]
         texels, light = order[:count], np.arange(count)
     keep = np.where(lum.flat[texels] > 0.0, level / np.maximum(lum.flat[texels], 1e-300), 1.0)
